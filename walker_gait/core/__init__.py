@@ -1,0 +1,1 @@
+"""Algorithm core: pure numpy/OpenCV, no rclpy import anywhere below this package."""

@@ -1,0 +1,420 @@
+"""Measurement model of the seed paper (§4.4): 3D cue (eq. 4-7), 2D cue (eq. 8-9), product (eq. 10).
+
+Everything here works in the camera optical frame, metres, and returns **log** likelihoods
+``(P,)`` vectorised over particles.
+
+Units.  The paper measures distances in millimetres with ``λ1 = 1/5`` (eq. 7) and
+``λ2 = 1/3`` (eq. 9).  We keep metres internally, so the equivalent rates are
+``λ1 = 1000/5 = 200 m⁻¹`` and ``λ2 = 1000/3 ≈ 333 m⁻¹`` (:data:`PAPER_LAMBDA_3D`,
+:data:`PAPER_LAMBDA_2D`): ``exp(-λ_mm · d_mm) = exp(-λ_m · d_m)``.
+
+3D cue.  Each model segment (tapered cylinder, or the foot half-cylinder whose axis lies in
+the sole) is represented by ``n + 2`` skeleton points on its axis with the local radius
+``w_m``.  ``d_MF`` (eq. 5) = mean over model points of ``|w_m - min_f ||f - m|| |``; ``d_FM``
+(eq. 4) = mean over (sub-sampled) foreground points of ``min_m |w_m - ||f - m|| |`` (the
+model point nearest to ``f`` in the *surface* sense, which is what the paper's figure 3
+describes for tapered segments); ``d1 = (d_FM + d_MF) / 2`` (eq. 6).
+
+Extensions used by the ``default`` preset (all off for ``paper``): occlusion-aware
+``d_MF`` (a skeleton point whose pixel shows an observed surface clearly *in front* of it,
+or that projects outside the image, costs a constant ``occluded_cost`` instead of its
+distance), segment masks (hidden segments left out of ``d_MF``), and a truncated per-pixel
+cost in the 2D cue.
+
+2D cue.  The model is rendered to a depth image (z-buffer over segments; pixels outside the
+model are background) and compared pixel-wise with the observed foreground depth (eq. 8,
+background = 0 in both images so a foreground/background mismatch costs the foreground
+depth).  ``d2`` is the per-pixel mean over the *whole* cue image (as in the paper's
+``640 × 480`` normaliser), but only a region of interest containing every foreground pixel
+and every rendered particle is actually evaluated (the rest contributes 0 exactly).
+Renderer: each tapered cylinder is rasterised analytically per pixel as a "projected
+capsule" — distance of the pixel to the projected axis, radius and depth interpolated along
+it, front-surface depth ``z(t) - r(t) sqrt(1 - (d/ρ)²)``; foot pixels whose surface point
+would lie below the floor are dropped (the foot is a half-cylinder on its flat sole).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from walker_gait.core.types import CameraIntrinsics, FloorPlane
+
+FloatArray = NDArray[np.float64]
+F32 = NDArray[np.float32]
+BoolArray = NDArray[np.bool_]
+
+PAPER_LAMBDA_3D = 1000.0 / 5.0
+"""Eq. 7 rate ``λ1 = 1/5 mm⁻¹`` expressed per metre."""
+PAPER_LAMBDA_2D = 1000.0 / 3.0
+"""Eq. 9 rate ``λ2 = 1/3 mm⁻¹`` expressed per metre."""
+
+
+# --------------------------------------------------------------------------------------
+# 3D cue
+# --------------------------------------------------------------------------------------
+def skeleton_points(
+    segments: FloatArray, radii: FloatArray, *, n: int
+) -> tuple[FloatArray, FloatArray]:
+    """Skeleton points of segments ``(P, S, 2, 3)`` with end radii ``(P, S, 2)``.
+
+    Returns points ``(P, S, n + 2, 3)`` (end points plus ``n`` evenly spaced interior points)
+    and their widths ``(P, S, n + 2)`` (radius interpolated linearly, paper fig. 3).
+    """
+    t = np.linspace(0.0, 1.0, n + 2)
+    a = segments[:, :, 0, None, :]
+    b = segments[:, :, 1, None, :]
+    pts = a + (b - a) * t[None, None, :, None]
+    w = radii[:, :, 0, None] + (radii[:, :, 1, None] - radii[:, :, 0, None]) * t
+    return pts, w
+
+
+def _pairwise_distances(model: F32, fg: F32, fg_sq: F32) -> F32:
+    """Euclidean distances ``(P, M, N)`` between model points ``(P, M, 3)`` and ``fg (N, 3)``."""
+    p, m, _ = model.shape
+    flat = model.reshape(p * m, 3)
+    sq = flat @ (-2.0 * fg.T)
+    sq += np.einsum("ij,ij->i", flat, flat)[:, None]
+    sq += fg_sq[None, :]
+    np.maximum(sq, 0.0, out=sq)
+    np.sqrt(sq, out=sq)
+    return sq.reshape(p, m, -1)
+
+
+def foreground_costs(
+    segments: FloatArray, radii: FloatArray, *, fg: FloatArray, n: int
+) -> F32:
+    """Per-foreground-point surface costs ``min_m |w_m - ||f - m|| |`` ``(P, N)`` (eq. 4 terms)."""
+    pts, w = skeleton_points(segments, radii, n=n)
+    p = pts.shape[0]
+    fg32 = np.asarray(fg, dtype=np.float32)
+    d = _pairwise_distances(
+        pts.reshape(p, -1, 3).astype(np.float32), fg32, np.einsum("ij,ij->i", fg32, fg32)
+    )
+    d -= w.reshape(p, -1, 1).astype(np.float32)
+    np.abs(d, out=d)
+    return d.min(axis=1)
+
+
+@dataclass(frozen=True)
+class Cue3DParams:
+    """Parameters of the 3D cue (eq. 4-7)."""
+
+    lam: float = PAPER_LAMBDA_3D  # rate, 1/m
+    n_skeleton: int = 10  # interior skeleton points per segment (paper n = 10)
+    occlusion_aware: bool = False  # occluded/out-of-image skeleton points cost `occluded_cost`
+    occluded_cost: float = 0.01  # m
+    occlusion_tol: float = 0.04  # m: observed surface must be this much in front of the model surface
+    truncate: float = np.inf  # m: per-point distance cap (robustness to clutter)
+
+
+def log_likelihood_3d(
+    segments: FloatArray,
+    radii: FloatArray,
+    *,
+    fg: FloatArray,
+    params: Cue3DParams,
+    ref_fg_costs: F32 | None = None,
+    active: BoolArray | None = None,
+    cue_image: CueImage | None = None,
+) -> FloatArray:
+    """Log likelihood ``-λ1 d1`` (eq. 6-7) of ``(P, S, 2, 3)`` camera-frame segments.
+
+    ``fg``: ``(N, 3)`` (sub-sampled) foreground points, camera frame.
+    ``ref_fg_costs``: ``(N,)`` surface costs of the foreground w.r.t. model parts that are
+    held fixed (partitioned sampling: the other leg); combined by ``min`` into ``d_FM``.
+    ``active``: ``(S,)`` segments that contribute to ``d_MF`` (hidden ones are left out).
+    ``cue_image``: needed when ``params.occlusion_aware`` (observed depth for the test).
+    """
+    p, s = segments.shape[:2]
+    n_fg = fg.shape[0]
+    if n_fg == 0:
+        return np.zeros(p)
+    pts, w = skeleton_points(segments, radii, n=params.n_skeleton)
+    k = params.n_skeleton + 2
+    fg32 = np.asarray(fg, dtype=np.float32)
+    d = _pairwise_distances(
+        pts.reshape(p, s * k, 3).astype(np.float32), fg32, np.einsum("ij,ij->i", fg32, fg32)
+    )  # (P, M, N)
+    w32 = w.reshape(p, s * k).astype(np.float32)
+    # d_MF (eq. 5)
+    mf = np.abs(d.min(axis=2) - w32)  # (P, M)
+    # d_FM (eq. 4)
+    d -= w32[:, :, None]
+    np.abs(d, out=d)
+    fm = d.min(axis=1)  # (P, N)
+    if ref_fg_costs is not None:
+        np.minimum(fm, ref_fg_costs[None, :], out=fm)
+    if np.isfinite(params.truncate):
+        np.minimum(fm, params.truncate, out=fm)
+        np.minimum(mf, params.truncate, out=mf)
+    mask = np.ones((p, s * k), dtype=bool)
+    if active is not None:
+        mask &= np.repeat(np.asarray(active, dtype=bool), k)[None, :]
+    if params.occlusion_aware and cue_image is not None:
+        occ = cue_image.occluded(pts.reshape(p, s * k, 3), w.reshape(p, s * k), tol=params.occlusion_tol)
+        mf = np.where(occ, np.float32(params.occluded_cost), mf)
+    cnt = np.maximum(mask.sum(axis=1), 1)
+    d_mf = np.where(mask, mf, 0.0).sum(axis=1) / cnt
+    d_fm = fm.mean(axis=1)
+    d1 = 0.5 * (d_fm + d_mf)
+    return -params.lam * d1.astype(np.float64)
+
+
+# --------------------------------------------------------------------------------------
+# 2D cue
+# --------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class CueImage:
+    """Observed foreground depth at the 2D-cue resolution (camera frame, metres).
+
+    ``depth``: ``(h, w)`` float32, 0 where background/invalid (paper convention);
+    ``intrinsics``: of the cue image; ``ray_up``: ``(h, w)`` float32, floor normal · pixel
+    ray ``(x/z, y/z, 1)`` so a surface point at depth ``z`` has floor height
+    ``z * ray_up + floor_offset``.
+    """
+
+    depth: F32
+    intrinsics: CameraIntrinsics
+    ray_up: F32
+    floor_offset: float
+    fg_bbox: tuple[int, int, int, int] | None  # (v0, v1, u0, u1) half-open, None if empty
+
+    @staticmethod
+    def from_depth(
+        depth_fg: NDArray[np.floating], *, intrinsics: CameraIntrinsics, stride: int, floor: FloorPlane
+    ) -> CueImage:
+        """Sub-sample the full-resolution foreground depth (NaN = background) by ``stride``.
+
+        Pixel centres are kept aligned with :meth:`CameraIntrinsics.scaled` (``1/stride``).
+        """
+        if stride < 1:
+            raise ValueError(f"stride must be >= 1, got {stride}")
+        if depth_fg.shape != (intrinsics.height, intrinsics.width):
+            msg = f"depth_fg shape {depth_fg.shape} != intrinsics {intrinsics.height}x{intrinsics.width}"
+            raise ValueError(msg)
+        intr = intrinsics if stride == 1 else intrinsics.scaled(1.0 / stride)
+        off = stride // 2
+        sub = np.asarray(depth_fg, dtype=np.float32)[off::stride, off::stride][: intr.height, : intr.width]
+        if sub.shape != (intr.height, intr.width):
+            pad = np.full((intr.height, intr.width), np.nan, np.float32)
+            pad[: sub.shape[0], : sub.shape[1]] = sub
+            sub = pad
+        depth = np.where(np.isfinite(sub) & (sub > 0), sub, 0.0).astype(np.float32)
+        u = (np.arange(intr.width, dtype=np.float64) - intr.cx) / intr.fx
+        v = (np.arange(intr.height, dtype=np.float64) - intr.cy) / intr.fy
+        nrm = np.asarray(floor.normal, dtype=np.float64)
+        ray_up = (nrm[0] * u[None, :] + nrm[1] * v[:, None] + nrm[2]).astype(np.float32)
+        rows = np.flatnonzero(depth.any(axis=1))
+        cols = np.flatnonzero(depth.any(axis=0))
+        bbox = None if rows.size == 0 else (int(rows[0]), int(rows[-1]) + 1, int(cols[0]), int(cols[-1]) + 1)
+        return CueImage(depth=depth, intrinsics=intr, ray_up=ray_up, floor_offset=float(floor.offset), fg_bbox=bbox)
+
+    def occluded(self, pts: FloatArray, widths: FloatArray, *, tol: float) -> BoolArray:
+        """``(...)`` True where camera-frame skeleton points are out of the image or hidden.
+
+        Hidden: the observed depth at the point's pixel is smaller than the model's front
+        surface ``z - width`` by more than ``tol`` (something observed is in front of it).
+        """
+        intr = self.intrinsics
+        z = pts[..., 2]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            u = np.rint(intr.fx * pts[..., 0] / z + intr.cx)
+            v = np.rint(intr.fy * pts[..., 1] / z + intr.cy)
+        inside = (z > 0.05) & (u >= 0) & (u < intr.width) & (v >= 0) & (v < intr.height)
+        ui = np.where(inside, u, 0).astype(np.intp)
+        vi = np.where(inside, v, 0).astype(np.intp)
+        obs = self.depth[vi, ui]
+        hidden = (obs > 0) & (obs < z - widths - tol)
+        return ~inside | hidden
+
+
+def project_bbox(
+    segments: FloatArray, radii: FloatArray, *, intrinsics: CameraIntrinsics
+) -> tuple[int, int, int, int]:
+    """Half-open pixel bbox ``(v0, v1, u0, u1)`` covering all rendered segments (clipped)."""
+    pts = segments.reshape(-1, 3)
+    z = np.maximum(pts[:, 2], 0.05)
+    rmax = float(np.max(radii)) if radii.size else 0.0
+    u = intrinsics.fx * pts[:, 0] / z + intrinsics.cx
+    v = intrinsics.fy * pts[:, 1] / z + intrinsics.cy
+    pad_u = intrinsics.fx * rmax / float(np.min(z)) + 1
+    pad_v = intrinsics.fy * rmax / float(np.min(z)) + 1
+    u0 = int(np.clip(np.floor(u.min() - pad_u), 0, intrinsics.width))
+    u1 = int(np.clip(np.ceil(u.max() + pad_u) + 1, 0, intrinsics.width))
+    v0 = int(np.clip(np.floor(v.min() - pad_v), 0, intrinsics.height))
+    v1 = int(np.clip(np.ceil(v.max() + pad_v) + 1, 0, intrinsics.height))
+    return v0, v1, u0, u1
+
+
+def union_bbox(
+    a: tuple[int, int, int, int] | None, b: tuple[int, int, int, int] | None
+) -> tuple[int, int, int, int] | None:
+    """Union of two half-open bboxes (None = empty)."""
+    if a is None:
+        return b
+    if b is None:
+        return a
+    return min(a[0], b[0]), max(a[1], b[1]), min(a[2], b[2]), max(a[3], b[3])
+
+
+def render_depth(
+    segments: FloatArray,
+    radii: FloatArray,
+    *,
+    cue: CueImage,
+    bbox: tuple[int, int, int, int],
+    floor_clip: BoolArray | None = None,
+) -> F32:
+    """Render ``(P, S, 2, 3)`` camera-frame segments into the bbox; ``(P, Npix)`` depth, inf = empty.
+
+    Row-major pixels of ``bbox``.  Each segment is only evaluated inside the union (over
+    particles) of its own projected bbox; the per-pixel terms that are linear in the pixel
+    coordinates (axis parameter, perpendicular distance) are built from separable row/column
+    terms.  ``floor_clip``: ``(S,)`` segments (feet) whose surface points below the floor are
+    dropped.
+    """
+    intr = cue.intrinsics
+    v0, v1, u0, u1 = bbox
+    p, s = segments.shape[:2]
+    hh, ww = max(v1 - v0, 0), max(u1 - u0, 0)
+    out = np.full((p, hh, ww), np.inf, dtype=np.float32)
+    if hh == 0 or ww == 0:
+        return out.reshape(p, 0)
+    fx, fy = float(intr.fx), float(intr.fy)
+    seg = np.asarray(segments, dtype=np.float64)
+    rad = np.asarray(radii, dtype=np.float64)
+    za = np.maximum(seg[:, :, 0, 2], 0.05)
+    zb = np.maximum(seg[:, :, 1, 2], 0.05)
+    ax = fx * seg[:, :, 0, 0] / za + intr.cx
+    ay = fy * seg[:, :, 0, 1] / za + intr.cy
+    bx = fx * seg[:, :, 1, 0] / zb + intr.cx
+    by = fy * seg[:, :, 1, 1] / zb + intr.cy
+    rmax_px = fx * np.maximum(rad[:, :, 0] / za, rad[:, :, 1] / zb)
+    for j in range(s):
+        # union bbox of this segment over particles, clipped to the render bbox
+        lo_u = int(np.floor(np.min(np.minimum(ax[:, j], bx[:, j]) - rmax_px[:, j]))) - 1
+        hi_u = int(np.ceil(np.max(np.maximum(ax[:, j], bx[:, j]) + rmax_px[:, j]))) + 2
+        lo_v = int(np.floor(np.min(np.minimum(ay[:, j], by[:, j]) - rmax_px[:, j]))) - 1
+        hi_v = int(np.ceil(np.max(np.maximum(ay[:, j], by[:, j]) + rmax_px[:, j]))) + 2
+        su0, su1 = max(lo_u, u0), min(hi_u, u1)
+        sv0, sv1 = max(lo_v, v0), min(hi_v, v1)
+        if su1 <= su0 or sv1 <= sv0:
+            continue
+        uu = np.arange(su0, su1, dtype=np.float64)
+        vv = np.arange(sv0, sv1, dtype=np.float64)
+        dx, dy = bx[:, j] - ax[:, j], by[:, j] - ay[:, j]
+        len2 = np.maximum(dx * dx + dy * dy, 1e-6)
+        ln = np.sqrt(len2)
+        # t_raw = ((u-ax) dx + (v-ay) dy) / len2 ; perpendicular distance = ((u-ax)(-dy) + (v-ay) dx) / len
+        tu = ((uu[None, :] - ax[:, j, None]) * (dx / len2)[:, None]).astype(np.float32)
+        tv = ((vv[None, :] - ay[:, j, None]) * (dy / len2)[:, None]).astype(np.float32)
+        pu = ((uu[None, :] - ax[:, j, None]) * (-dy / ln)[:, None]).astype(np.float32)
+        pv = ((vv[None, :] - ay[:, j, None]) * (dx / ln)[:, None]).astype(np.float32)
+        t_raw = tv[:, :, None] + tu[:, None, :]  # (P, h, w)
+        t = np.clip(t_raw, 0.0, 1.0)
+        t_raw -= t
+        t_raw *= ln.astype(np.float32)[:, None, None]  # along-axis excess (px)
+        dperp = pv[:, :, None] + pu[:, None, :]
+        d2 = dperp * dperp
+        t_raw *= t_raw
+        d2 += t_raw
+        ra = rad[:, j, 0].astype(np.float32)[:, None, None]
+        dr = (rad[:, j, 1] - rad[:, j, 0]).astype(np.float32)[:, None, None]
+        z0 = za[:, j].astype(np.float32)[:, None, None]
+        dz = (zb[:, j] - za[:, j]).astype(np.float32)[:, None, None]
+        r = t * dr
+        r += ra
+        z = t * dz
+        z += z0
+        # q = 1 - d2 / rho^2 with rho = r fx / z
+        rho = r * np.float32(fx)
+        rho /= z
+        rho *= rho
+        d2 /= rho
+        np.subtract(1.0, d2, out=d2)
+        inside = d2 > 0
+        np.maximum(d2, 0.0, out=d2)
+        np.sqrt(d2, out=d2)
+        d2 *= r
+        np.subtract(z, d2, out=z)  # front-surface depth
+        if floor_clip is not None and floor_clip[j]:
+            up = cue.ray_up[sv0:sv1, su0:su1]
+            inside &= z * up[None] + np.float32(cue.floor_offset) >= -0.005
+        z[~inside] = np.inf
+        view = out[:, sv0 - v0 : sv1 - v0, su0 - u0 : su1 - u0]
+        np.minimum(view, z, out=view)
+    return out.reshape(p, hh * ww)
+
+
+@dataclass(frozen=True)
+class Cue2DParams:
+    """Parameters of the 2D cue (eq. 8-9)."""
+
+    lam: float = PAPER_LAMBDA_2D  # rate, 1/m
+    stride: int = 1  # cue image = full resolution / stride (paper: 1 = 640x480)
+    truncate: float = np.inf  # m: per-pixel cost cap (paper: none; mismatch costs the full depth)
+    occlusion_aware: bool = False  # observed surface in front of the model costs `occluded_cost`
+    occluded_cost: float = 0.02  # m
+    occlusion_tol: float = 0.05  # m
+
+
+def depth_costs(model: F32, observed: F32, *, params: Cue2DParams) -> F32:
+    """Per-pixel ``|z_P - z_K|`` (eq. 8 terms), background = 0 in both images; ``(P, Npix)``."""
+    empty = ~np.isfinite(model)
+    m = np.where(empty, np.float32(0.0), model)
+    k = observed[None, :]
+    c = m - k
+    np.abs(c, out=c)
+    if params.occlusion_aware:
+        occ = (k > 0) & ~empty & (k < m - np.float32(params.occlusion_tol))
+        c[occ] = np.float32(params.occluded_cost)
+    if np.isfinite(params.truncate):
+        np.minimum(c, np.float32(params.truncate), out=c)
+    return c
+
+
+def log_likelihood_2d(
+    segments: FloatArray,
+    radii: FloatArray,
+    *,
+    cue: CueImage,
+    params: Cue2DParams,
+    bbox: tuple[int, int, int, int] | None = None,
+    ref_render: F32 | None = None,
+    floor_clip: BoolArray | None = None,
+    chunk: int = 256,
+) -> FloatArray:
+    """Log likelihood ``-λ2 d2`` (eq. 8-9) of ``(P, S, 2, 3)`` camera-frame segments.
+
+    ``bbox``: pixels evaluated (must contain every foreground pixel and all rendered model
+    pixels for the normalisation to be exact); default = union of the foreground bbox and the
+    particles' projected bbox.  ``ref_render``: ``(Npix,)`` depth of fixed model parts rendered
+    in the same bbox (z-buffered with each particle).  Particles are processed in chunks.
+    """
+    p = segments.shape[0]
+    if bbox is None:
+        bbox = union_bbox(cue.fg_bbox, project_bbox(segments, radii, intrinsics=cue.intrinsics))
+    assert bbox is not None
+    v0, v1, u0, u1 = bbox
+    obs = cue.depth[v0:v1, u0:u1].ravel()
+    total = float(cue.intrinsics.width * cue.intrinsics.height)
+    out = np.empty(p)
+    for c0 in range(0, p, chunk):
+        sl = slice(c0, min(p, c0 + chunk))
+        model = render_depth(segments[sl], radii[sl], cue=cue, bbox=bbox, floor_clip=floor_clip)
+        if ref_render is not None:
+            np.minimum(model, ref_render[None, :], out=model)
+        cost = depth_costs(model, obs, params=params)
+        out[sl] = cost.sum(axis=1, dtype=np.float64) / total
+    return -params.lam * out
+
+
+def combine_log_likelihoods(*logs: FloatArray) -> FloatArray:
+    """Eq. 10 in log space: the product of independent cues is the sum of their logs."""
+    total = np.zeros_like(np.asarray(logs[0], dtype=np.float64))
+    for lg in logs:
+        total = total + lg
+    return total

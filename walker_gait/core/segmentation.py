@@ -1,0 +1,972 @@
+"""Floor estimation, region of interest and foreground (leg) segmentation.
+
+Pure numpy (no rclpy).  Units are SI (metres).  Inputs are the depth image
+(``(H, W)`` float32 metres, NaN invalid, see :func:`walker_gait.core.depth.decode_depth`)
+and its back-projection (``(H, W, 3)`` float32 points in the **camera optical
+frame**, see :class:`walker_gait.core.depth.DepthProjector`).
+
+Pipeline of :meth:`Segmenter.process` (seed paper 000 §4.2, plus robustness):
+
+1. floor plane: automatic RANSAC (:func:`fit_floor_ransac`), tracked over time by
+   :class:`FloorTracker` (cheap residual check each frame, re-fit when needed);
+2. floor removal: either points less than ``RoiConfig.min_height`` above the plane
+   (``floor_method="plane"``), or the seed's background-frame subtraction
+   (``floor_method="background"``, :class:`BackgroundModel`);
+3. region of interest: a box in the floor-aligned **walker frame** (x forward from
+   the camera towards the user, y = the camera's left, z up; :class:`RoiConfig`);
+4. optional removal of structure that is static in the camera frame (the walker's
+   own frame) with the 3-state occupancy-grid HMM of paper 003 §III-A (:class:`OccupancyHMM`).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable
+from dataclasses import dataclass, field
+from os import PathLike
+from pathlib import Path
+
+import numpy as np
+from numpy.typing import NDArray
+
+from walker_gait.core.types import CameraIntrinsics, FloorPlane
+
+F32 = NDArray[np.float32]
+F64 = NDArray[np.float64]
+BoolArray = NDArray[np.bool_]
+
+__all__ = [
+    "BackgroundModel",
+    "BackgroundModelError",
+    "FloorConfig",
+    "FloorTracker",
+    "HmmConfig",
+    "OccupancyHMM",
+    "RoiConfig",
+    "Segmentation",
+    "Segmenter",
+    "SegmenterConfig",
+    "fit_floor_ransac",
+    "invalid_floor",
+]
+
+
+# =========================================================================== floor
+
+
+@dataclass(kw_only=True)
+class FloorConfig:
+    """Floor-plane estimation parameters (RANSAC + tracking).
+
+    Distances in metres, angles in degrees, ``z`` = optical-axis depth of a point.
+    The plausible-orientation prior is expressed relative to ``up_hint`` (the
+    approximate "up" direction in the camera optical frame, default ``-y`` =
+    image up), so no particular camera pitch is hard-coded.
+    """
+
+    sample_stride: int = 4
+    """Pixel stride of the grid subsample of the points image used by RANSAC (px)."""
+    check_stride: int = 8
+    """Pixel stride of the (cheaper) subsample used for the per-frame check and refinement (px)."""
+    max_fit_range: float = 5.0
+    """Points farther than this (optical z, m) are not used for the floor (noise grows with z²)."""
+    ransac_iterations: int = 200
+    """Number of 3-point plane hypotheses per RANSAC run."""
+    ransac_max_points: int = 2500
+    """Points used to score the hypotheses (random subset of the subsample)."""
+    inlier_threshold: float = 0.012
+    """Inlier band half-width at zero range (m)."""
+    inlier_threshold_per_m2: float = 0.005
+    """Growth of the inlier band with squared range (m per m²); Kinect depth noise ~ 0.0014-0.003 z²."""
+    up_hint: tuple[float, float, float] = (0.0, -1.0, 0.0)
+    """Approximate up direction in the camera optical frame (need not be unit length)."""
+    max_tilt_deg: float = 70.0
+    """Max angle between a candidate floor normal and ``up_hint`` (deg); walls (~90°) are rejected."""
+    min_camera_height: float = 0.1
+    """Plausible camera heights above the floor (m), lower bound."""
+    max_camera_height: float = 3.0
+    """Plausible camera heights above the floor (m), upper bound."""
+    min_inliers: int = 100
+    """Minimum number of inliers (at ``sample_stride``; scaled for ``check_stride``) for a floor to be accepted."""
+    min_inlier_fraction: float = 0.03
+    """Minimum inliers / usable subsample points for a floor to be accepted."""
+    lower_plane_support: float = 0.3
+    """A plausible plane lying below the best-supported one wins if it has at least this fraction of its support."""
+    max_below_fraction: float = 0.05
+    """Max fraction of usable points clearly (3 bands) below an accepted floor."""
+    refine_iterations: int = 3
+    """Least-squares re-fits on the inliers after RANSAC."""
+    smoothing: float = 0.2
+    """Weight of each new measurement in the exponential smoothing of the tracked plane (0..1]."""
+    refit_interval: int = 90
+    """Re-run RANSAC at least every this many frames (frames)."""
+    min_support_ratio: float = 0.5
+    """Re-run RANSAC when the near-plane fraction drops below this times its value at the last RANSAC."""
+    max_rms_growth: float = 2.0
+    """Re-run RANSAC when the residual RMS exceeds this times its value at the last RANSAC."""
+    max_jump_deg: float = 8.0
+    """A re-fit within this angle (deg) of the tracked plane is smoothed in; larger changes are adopted only if the tracked plane lost support."""
+    max_jump_m: float = 0.08
+    """Same for the plane offset (camera height, m)."""
+
+    def validate(self) -> None:
+        """Raise ``ValueError`` naming the first invalid field."""
+        if self.sample_stride < 1 or self.check_stride < 1:
+            raise ValueError(f"floor.sample_stride and floor.check_stride must be >= 1, got {self.sample_stride}, {self.check_stride}")
+        if self.ransac_iterations < 1 or self.ransac_max_points < 3:
+            raise ValueError("floor.ransac_iterations must be >= 1 and floor.ransac_max_points >= 3")
+        if not (self.inlier_threshold > 0) or self.inlier_threshold_per_m2 < 0:
+            raise ValueError("floor.inlier_threshold must be > 0 and floor.inlier_threshold_per_m2 >= 0")
+        up = np.asarray(self.up_hint, dtype=np.float64)
+        if up.shape != (3,) or not np.all(np.isfinite(up)) or np.linalg.norm(up) < 1e-9:
+            raise ValueError(f"floor.up_hint must be a finite non-zero 3-vector, got {self.up_hint}")
+        if not (0 < self.max_tilt_deg <= 90):
+            raise ValueError(f"floor.max_tilt_deg must be in (0, 90], got {self.max_tilt_deg}")
+        if not (0 <= self.min_camera_height < self.max_camera_height):
+            raise ValueError("floor.min_camera_height must be >= 0 and < floor.max_camera_height")
+        if not (0 < self.smoothing <= 1):
+            raise ValueError(f"floor.smoothing must be in (0, 1], got {self.smoothing}")
+        if self.refit_interval < 1:
+            raise ValueError(f"floor.refit_interval must be >= 1, got {self.refit_interval}")
+
+
+def invalid_floor(config: FloorConfig | None = None) -> FloorPlane:
+    """Placeholder plane for "no floor found yet": ``valid=False``, normal = ``up_hint``, offset NaN."""
+    up = np.asarray((config or FloorConfig()).up_hint, dtype=np.float64)
+    return FloorPlane(normal=up / np.linalg.norm(up), offset=float("nan"), rms=float("nan"), inlier_ratio=0.0, valid=False)
+
+
+def _band(z: NDArray[np.floating], cfg: FloorConfig) -> NDArray[np.floating]:
+    """Distance-dependent inlier band half-width (m) for points at optical depth ``z``."""
+    return cfg.inlier_threshold + cfg.inlier_threshold_per_m2 * z * z
+
+
+def _usable(points: NDArray[np.floating], cfg: FloorConfig) -> F64:
+    """Finite points with 0 < z <= max_fit_range, as float64 ``(N, 3)``."""
+    pts = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+    z = pts[:, 2]
+    ok = np.isfinite(pts).all(axis=1) & (z > 0) & (z <= cfg.max_fit_range)
+    return pts[ok]
+
+
+def _lsq_plane(pts: F64) -> tuple[F64, float] | None:
+    """Total-least-squares plane ``n·p + d = 0`` (unit n) through ``pts``; None if degenerate."""
+    if pts.shape[0] < 3:
+        return None
+    centroid = pts.mean(axis=0)
+    q = pts - centroid
+    cov = q.T @ q
+    if not np.all(np.isfinite(cov)):
+        return None
+    w, v = np.linalg.eigh(cov)
+    if w[1] <= 1e-12:  # points (nearly) collinear
+        return None
+    n = v[:, 0]
+    return n, float(-n @ centroid)
+
+
+def _orient_up(n: F64, d: float) -> tuple[F64, float]:
+    """Flip the plane so that the camera (origin) is on its positive side (offset >= 0)."""
+    return (-n, -d) if d < 0 else (n, d)
+
+
+def _plausible(n: F64, d: float, cfg: FloorConfig, up: F64) -> bool:
+    cos_tilt = math.cos(math.radians(cfg.max_tilt_deg))
+    return bool(n @ up >= cos_tilt and cfg.min_camera_height <= d <= cfg.max_camera_height)
+
+
+def _refine(pts: F64, band: F64, n: F64, d: float, cfg: FloorConfig, up: F64) -> tuple[F64, float, BoolArray] | None:
+    """Iterated least-squares refinement on the inliers of ``(n, d)``; None if it degenerates."""
+    inl = np.abs(pts @ n + d) < band
+    for _ in range(max(1, cfg.refine_iterations)):
+        fit = _lsq_plane(pts[inl])
+        if fit is None:
+            return None
+        n_new, d_new = _orient_up(*fit)
+        if not _plausible(n_new, d_new, cfg, up):
+            return None
+        n, d = n_new, d_new
+        inl = np.abs(pts @ n + d) < band
+    return n, d, inl
+
+
+def fit_floor_ransac(
+    points: NDArray[np.floating],
+    *,
+    rng: np.random.Generator,
+    config: FloorConfig | None = None,
+) -> FloorPlane:
+    """Robustly fit the floor plane to camera-frame points (metres) with RANSAC + least squares.
+
+    ``points`` is ``(N, 3)`` (or any ``(..., 3)``; non-finite rows are ignored),
+    camera optical frame.  Candidate planes must be *plausible*: normal within
+    ``max_tilt_deg`` of ``up_hint`` and camera height within
+    ``[min_camera_height, max_camera_height]``.  Among plausible candidates the
+    best-supported one is taken, unless another plausible candidate with at
+    least ``lower_plane_support`` of that support lies *below* it (its inliers
+    are above the candidate) — the floor is the lowest large horizontal
+    surface, so a big box, a seat or the walker's frame cannot win over it.
+    The winner is refined by least squares on its inliers.
+
+    Returns a :class:`FloorPlane` with the normal pointing up, ``offset`` = camera
+    height (m), ``rms`` of the inlier residuals (m) and ``inlier_ratio`` =
+    inliers / usable points; ``valid=False`` (offset NaN) if no plausible floor
+    has enough support.  Never raises on degenerate input.
+    """
+    cfg = config or FloorConfig()
+    up = np.asarray(cfg.up_hint, dtype=np.float64)
+    up = up / np.linalg.norm(up)
+    pts = _usable(points, cfg)
+    n_pts = pts.shape[0]
+    if n_pts < max(3, cfg.min_inliers):
+        return invalid_floor(cfg)
+    band_all = _band(pts[:, 2], cfg)
+
+    # scoring subset
+    if n_pts > cfg.ransac_max_points:
+        sel = rng.choice(n_pts, size=cfg.ransac_max_points, replace=False)
+        spts, sband = pts[sel], band_all[sel]
+    else:
+        spts, sband = pts, band_all
+    m = spts.shape[0]
+
+    # vectorised hypotheses
+    tri = rng.integers(0, m, size=(cfg.ransac_iterations, 3))
+    a, b, c = spts[tri[:, 0]], spts[tri[:, 1]], spts[tri[:, 2]]
+    normals = np.cross(b - a, c - a)
+    norms = np.linalg.norm(normals, axis=1)
+    good = norms > 1e-9
+    if not np.any(good):
+        return invalid_floor(cfg)
+    normals, a = normals[good] / norms[good, None], a[good]
+    offs = -np.einsum("ij,ij->i", normals, a)
+    flip = offs < 0
+    normals[flip] *= -1.0
+    offs[flip] *= -1.0
+    cos_tilt = math.cos(math.radians(cfg.max_tilt_deg))
+    plaus = (normals @ up >= cos_tilt) & (offs >= cfg.min_camera_height) & (offs <= cfg.max_camera_height)
+    if not np.any(plaus):
+        return invalid_floor(cfg)
+    normals, offs = normals[plaus], offs[plaus]
+
+    heights = spts @ normals.T + offs  # (m, k) signed heights of the scoring points
+    inlier = np.abs(heights) < sband[:, None]
+    support = inlier.sum(axis=0)
+    below = (heights < -3.0 * sband[:, None]).sum(axis=0)
+    min_support = max(3, int(math.ceil(max(cfg.min_inliers * m / n_pts, cfg.min_inlier_fraction * m))))
+    cand = (support >= min_support) & (below <= cfg.max_below_fraction * m)
+    if not np.any(cand):
+        return invalid_floor(cfg)
+    best = int(np.argmax(np.where(cand, support, -1)))
+    # prefer a sufficiently supported plausible plane lying below the current choice
+    for _ in range(4):
+        ref_inl = inlier[:, best]
+        if ref_inl.sum() < 3:
+            break
+        med_h = np.median(heights[ref_inl], axis=0)  # height of best's inliers above each candidate
+        lower = cand & (support >= cfg.lower_plane_support * support[best]) & (med_h > 2.0 * np.median(sband[ref_inl]))
+        if not np.any(lower):
+            break
+        best = int(np.argmax(np.where(lower, support, -1)))
+
+    refined = _refine(pts, band_all, normals[best], float(offs[best]), cfg, up)
+    if refined is None:
+        return invalid_floor(cfg)
+    n, d, inl = refined
+    n_inl = int(inl.sum())
+    h = pts @ n + d
+    n_below = int((h < -3.0 * band_all).sum())
+    if n_inl < max(3, cfg.min_inliers) or n_inl < cfg.min_inlier_fraction * n_pts:
+        return invalid_floor(cfg)
+    if n_below > cfg.max_below_fraction * n_pts:
+        return invalid_floor(cfg)
+    rms = float(np.sqrt(np.mean(h[inl] ** 2)))
+    return FloorPlane(normal=n, offset=d, rms=rms, inlier_ratio=n_inl / n_pts, valid=True)
+
+
+def _angle_deg(n1: F64, n2: F64) -> float:
+    return math.degrees(math.acos(float(np.clip(n1 @ n2, -1.0, 1.0))))
+
+
+class FloorTracker:
+    """Temporally smoothed floor plane for a camera rigidly mounted on the walker.
+
+    Each :meth:`update` takes a grid subsample (``check_stride``) of the points,
+    measures the near-plane support, the fraction of points below the plane and
+    the residual RMS, refines the plane by least squares on the near-plane points
+    and blends it in with ``smoothing``.  RANSAC (:func:`fit_floor_ransac`) runs
+    only when no plane is known, when the support drops / the RMS grows / too many
+    points lie below the plane, or every ``refit_interval`` frames.  When no floor
+    is visible the last plane is kept (``floor_visible`` False); before a floor was
+    ever found the plane is :func:`invalid_floor`.
+
+    Counters: ``frames``, ``ransac_runs``, ``ransac_failures``, ``resets``.
+    """
+
+    def __init__(self, config: FloorConfig | None = None, *, rng: np.random.Generator) -> None:
+        self.config = config or FloorConfig()
+        self.config.validate()
+        self._rng = rng
+        up = np.asarray(self.config.up_hint, dtype=np.float64)
+        self._up = up / np.linalg.norm(up)
+        self.plane: FloorPlane = invalid_floor(self.config)
+        self.frames = 0
+        self.ransac_runs = 0
+        self.ransac_failures = 0
+        self.resets = 0
+        self.floor_visible = False
+        self.refit_this_frame = False
+        self._since_ransac = 0
+        self._ref_support = 0.0
+        self._ref_rms = 0.0
+
+    def reset(self) -> None:
+        """Forget the plane (e.g. after the camera was re-mounted)."""
+        self.plane = invalid_floor(self.config)
+        self._since_ransac = 0
+        self.resets += 1
+
+    def _subsample(self, points: NDArray[np.floating], s: int) -> F64:
+        if points.ndim == 3:
+            sub = points[::s, ::s]
+        else:
+            sub = points.reshape(-1, 3)[::s]
+        return _usable(sub, self.config)
+
+    def _check_set(self, points: NDArray[np.floating]) -> tuple[F64, F64]:
+        pts = self._subsample(points, self.config.check_stride)
+        return pts, _band(pts[:, 2], self.config)
+
+    def _stats(self, pts: F64, band: F64, n: F64, d: float) -> tuple[float, float, float, BoolArray]:
+        h = pts @ n + d
+        near = np.abs(h) < band
+        cnt = int(near.sum())
+        support = cnt / max(1, pts.shape[0])
+        below = float((h < -3.0 * band).sum()) / max(1, pts.shape[0])
+        rms = float(np.sqrt(np.mean(h[near] ** 2))) if cnt else float("inf")
+        return support, below, rms, near
+
+    def _run_ransac(self, pts: F64) -> FloorPlane:
+        self.ransac_runs += 1
+        self._since_ransac = 0
+        plane = fit_floor_ransac(pts, rng=self._rng, config=self.config)
+        if not plane.valid:
+            self.ransac_failures += 1
+        return plane
+
+    def _adopt(self, plane: FloorPlane, pts: F64, band: F64) -> None:
+        self.plane = plane
+        support, _, rms, _ = self._stats(pts, band, plane.normal, plane.offset)
+        self._ref_support = support
+        self._ref_rms = max(rms, 1e-4)
+
+    def _blend(self, n_meas: F64, d_meas: float, rms: float, ratio: float) -> None:
+        a = self.config.smoothing
+        n = (1.0 - a) * self.plane.normal + a * n_meas
+        n = n / np.linalg.norm(n)
+        d = (1.0 - a) * self.plane.offset + a * d_meas
+        self.plane = FloorPlane(normal=n, offset=float(d), rms=rms, inlier_ratio=ratio, valid=True)
+
+    def update(self, points: NDArray[np.floating]) -> FloorPlane:
+        """Update with one frame's camera-frame points (``(H, W, 3)`` image or ``(N, 3)``); return the plane."""
+        cfg = self.config
+        self.frames += 1
+        self._since_ransac += 1
+        self.refit_this_frame = False
+        if points.ndim == 3:
+            n_ransac = len(range(0, points.shape[0], cfg.sample_stride)) * len(range(0, points.shape[1], cfg.sample_stride))
+            n_check = len(range(0, points.shape[0], cfg.check_stride)) * len(range(0, points.shape[1], cfg.check_stride))
+        else:
+            n_ransac = len(range(0, points.reshape(-1, 3).shape[0], cfg.sample_stride))
+            n_check = len(range(0, points.reshape(-1, 3).shape[0], cfg.check_stride))
+        # inlier count needed in the check subsample (min_inliers is given at sample_stride)
+        min_check = max(3, int(cfg.min_inliers * n_check / max(1, n_ransac)))
+
+        if not self.plane.valid:
+            self.refit_this_frame = True
+            pts_r = self._subsample(points, cfg.sample_stride)
+            plane = self._run_ransac(pts_r)
+            self.floor_visible = plane.valid
+            if plane.valid:
+                self._adopt(plane, *self._check_set(points))
+            return self.plane
+
+        pts, band = self._check_set(points)
+        if pts.shape[0] < 3:
+            self.floor_visible = False
+            return self.plane
+        n0, d0 = self.plane.normal, self.plane.offset
+        support, below, rms, near = self._stats(pts, band, n0, d0)
+        lost = (
+            support < cfg.min_support_ratio * self._ref_support
+            or below > cfg.max_below_fraction
+            or int(near.sum()) < min_check
+            or rms > max(cfg.max_rms_growth * self._ref_rms, 0.5 * cfg.inlier_threshold)
+        )
+        if lost or self._since_ransac >= cfg.refit_interval:
+            self.refit_this_frame = True
+            plane = self._run_ransac(self._subsample(points, cfg.sample_stride))
+            if plane.valid:
+                close = (
+                    _angle_deg(plane.normal, n0) <= cfg.max_jump_deg and abs(plane.offset - d0) <= cfg.max_jump_m
+                )
+                if close:
+                    self._blend(plane.normal, plane.offset, plane.rms, plane.inlier_ratio)
+                    self._ref_support = self._stats(pts, band, self.plane.normal, self.plane.offset)[0]
+                    self._ref_rms = max(plane.rms, 1e-4)
+                    self.floor_visible = True
+                    return self.plane
+                if lost:  # the tracked plane is gone and a different plausible floor is there: jump
+                    self._adopt(plane, pts, band)
+                    self.resets += 1
+                    self.floor_visible = True
+                    return self.plane
+                # periodic re-fit disagrees while the tracked plane still holds: keep tracking
+            elif lost:
+                self.floor_visible = False
+                return self.plane
+        # cheap path: least-squares refinement on the near-plane points, smoothed in
+        if int(near.sum()) < min_check:
+            self.floor_visible = False
+            return self.plane
+        fit = _lsq_plane(pts[near])
+        if fit is None:
+            self.floor_visible = False
+            return self.plane
+        n1, d1 = _orient_up(*fit)
+        if not _plausible(n1, d1, cfg, self._up) or _angle_deg(n1, n0) > cfg.max_jump_deg:
+            self.floor_visible = False
+            return self.plane
+        h = pts[near] @ n1 + d1
+        self._blend(n1, d1, float(np.sqrt(np.mean(h * h))), support)
+        self.floor_visible = True
+        return self.plane
+
+
+# =========================================================================== ROI
+
+
+@dataclass(kw_only=True)
+class RoiConfig:
+    """Region of interest in the floor-aligned walker frame (metres).
+
+    Walker frame (see :mod:`walker_gait.core.types`): origin on the floor below
+    the camera, +x = optical axis projected on the floor (from the camera towards
+    the user), +y = the **camera's** left (= the image's left, optical -x),
+    +z = up.  Seed 000 §4.2: a box 1500 mm forward, 245 mm to the (camera's) left
+    and 175 mm to the (camera's) right, no height limit.  Note the seed measures
+    the box along the optical axes; here it is floor-aligned (same thing for an
+    unpitched camera).  The user's *anatomical* right leg is on the camera's left.
+    """
+
+    forward: float = 1.5
+    """Max distance forward (walker +x, towards the user) from the camera (m)."""
+    left: float = 0.245
+    """Max lateral offset to the camera's left (walker +y, image left) (m)."""
+    right: float = 0.175
+    """Max lateral offset to the camera's right (walker -y, image right) (m)."""
+    near: float = 0.0
+    """Min forward distance (walker x) (m); excludes the walker's own parts right below the camera."""
+    min_height: float = 0.025
+    """Points less than this above the floor plane are floor (m); ~3-5 sigma of Kinect noise at 1.5 m."""
+    min_height_per_m2: float = 0.002
+    """Extra floor band growing with the squared optical depth (m per m²)."""
+    max_height: float | None = None
+    """Optional max height above the floor (m); None = no limit (seed)."""
+
+    def validate(self) -> None:
+        """Raise ``ValueError`` naming the first invalid field."""
+        for name in ("forward", "left", "right", "min_height_per_m2"):
+            v = getattr(self, name)
+            if not (math.isfinite(v) and v >= 0):
+                raise ValueError(f"roi.{name} must be finite and >= 0, got {v}")
+        if not (math.isfinite(self.near) and 0 <= self.near < self.forward):
+            raise ValueError(f"roi.near must be in [0, forward), got {self.near}")
+        if not math.isfinite(self.min_height):
+            raise ValueError(f"roi.min_height must be finite, got {self.min_height}")
+        if self.max_height is not None and not (self.max_height > self.min_height):
+            raise ValueError(f"roi.max_height must be > min_height or None, got {self.max_height}")
+
+
+# =========================================================================== background (seed)
+
+
+class BackgroundModelError(ValueError):
+    """A background model file or frame is unusable."""
+
+
+class BackgroundModel:
+    """Per-pixel background depth learned from frames of the empty scene (seed 000 §4.2).
+
+    ``depth`` is ``(H, W)`` float32 metres, NaN where the background had no
+    reliable reading.  A pixel is foreground when it is valid and nearer than
+    the background by more than ``threshold + threshold_per_m2 * z_bg²`` — a
+    constant threshold in raw Kinect disparity units corresponds to
+    ``0.00307 * z² * units`` metres (eq. (1)); pixels farther than (behind) the
+    background are background.
+    """
+
+    FILE_VERSION = 1
+
+    def __init__(self, depth_m: NDArray[np.floating], *, n_frames: int = 1) -> None:
+        arr = np.asarray(depth_m, dtype=np.float32)
+        if arr.ndim != 2 or arr.size == 0:
+            raise BackgroundModelError(f"background depth must be a non-empty 2-D image, got shape {arr.shape}")
+        self.depth: F32 = np.where(np.isfinite(arr) & (arr > 0), arr, np.float32(np.nan)).astype(np.float32)
+        self.n_frames = int(n_frames)
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        """``(H, W)`` of the images this model applies to."""
+        return (int(self.depth.shape[0]), int(self.depth.shape[1]))
+
+    @classmethod
+    def from_frames(cls, frames: Iterable[NDArray[np.floating]], *, min_valid_fraction: float = 0.5) -> BackgroundModel:
+        """Per-pixel median of valid depths over ``frames``; pixels valid in fewer than
+        ``min_valid_fraction`` of the frames get NaN."""
+        stack = [np.asarray(f, dtype=np.float32) for f in frames]
+        if not stack:
+            raise BackgroundModelError("no frames to learn the background from")
+        shape = stack[0].shape
+        if any(f.shape != shape for f in stack):
+            raise BackgroundModelError("background frames have different shapes")
+        cube = np.stack(stack)
+        cube[~(np.isfinite(cube) & (cube > 0))] = np.nan
+        n_valid = np.isfinite(cube).sum(axis=0)
+        with np.errstate(all="ignore"):
+            import warnings
+
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", RuntimeWarning)
+                med = np.nanmedian(cube, axis=0)
+        med[n_valid < max(1, math.ceil(min_valid_fraction * len(stack)))] = np.nan
+        return cls(med, n_frames=len(stack))
+
+    def save(self, path: str | PathLike[str]) -> None:
+        """Write the model to a ``.npz`` file (``depth`` float32 metres, ``n_frames``, ``version``)."""
+        with Path(path).open("wb") as fh:
+            np.savez_compressed(
+                fh, depth=self.depth, n_frames=np.int64(self.n_frames), version=np.int64(self.FILE_VERSION)
+            )
+
+    @classmethod
+    def load(cls, path: str | PathLike[str]) -> BackgroundModel:
+        """Read a model written by :meth:`save`; raises :class:`BackgroundModelError` if unusable."""
+        try:
+            with np.load(Path(path), allow_pickle=False) as data:
+                if "depth" not in data.files:
+                    raise BackgroundModelError(f"{path}: not a background model (no 'depth' array)")
+                version = int(data["version"]) if "version" in data.files else cls.FILE_VERSION
+                if version != cls.FILE_VERSION:
+                    raise BackgroundModelError(f"{path}: unsupported background model version {version}")
+                depth = np.asarray(data["depth"])
+                n_frames = int(data["n_frames"]) if "n_frames" in data.files else 1
+        except (OSError, ValueError) as exc:
+            if isinstance(exc, BackgroundModelError):
+                raise
+            raise BackgroundModelError(f"{path}: cannot read background model ({exc})") from exc
+        return cls(depth, n_frames=n_frames)
+
+    def foreground_mask(
+        self, depth_m: NDArray[np.floating], *, threshold: float = 0.02, threshold_per_m2: float = 0.0092
+    ) -> BoolArray:
+        """``(H, W)`` bool: valid pixels nearer than the background by more than the threshold (m).
+
+        Pixels without background reading count as foreground when valid.
+        """
+        if depth_m.shape != self.depth.shape:
+            raise BackgroundModelError(
+                f"depth image shape {depth_m.shape} does not match background model shape {self.depth.shape}"
+            )
+        bg = self.depth
+        thr = threshold + threshold_per_m2 * bg * bg
+        closer = depth_m < bg - thr  # False where either is NaN
+        no_bg = np.isnan(bg) & (depth_m > 0)  # NaN depth compares False
+        return closer | no_bg
+
+
+# =========================================================================== occupancy HMM (paper 003)
+
+
+@dataclass(kw_only=True)
+class HmmConfig:
+    """Three-state occupancy-grid HMM of paper 003 §III-A (states O static, M moving, E empty).
+
+    Transitions per frame: O→E ``alpha``, E→M ``beta``, M→E ``gamma``, M→O ``psi``
+    (003: α=0.01, β=0.1, γ=0.4, ψ=e^-38, 5 cm cells).  Observation f(ε), ε = d − l
+    (measured depth minus voxel depth, m): see :meth:`OccupancyHMM.observation`.
+    """
+
+    cell_size: float = 0.05
+    """Voxel edge (m)."""
+    alpha: float = 0.01
+    beta: float = 0.1
+    gamma: float = 0.4
+    psi: float = math.exp(-38.0)
+    p_hit: float = 0.9
+    """f(ε≈0): likelihood of an occupied state when the voxel holds foreground points."""
+    p_free: float = 0.1
+    """f(ε>0): likelihood of an occupied state when the camera sees through the voxel."""
+    p_unknown: float = 0.5
+    """f(ε<0) (voxel hidden behind a surface) and missing depth: no information."""
+    free_margin: float = 0.05
+    """ε must exceed this (m) for a voxel to be seen through (absorbs depth noise)."""
+    min_points: int = 3
+    """Foreground points needed in a voxel to observe it as occupied."""
+    max_height: float = 1.2
+    """Top of the grid above the floor (m)."""
+
+    def validate(self) -> None:
+        if not (self.cell_size > 0):
+            raise ValueError(f"hmm.cell_size must be > 0, got {self.cell_size}")
+        for name in ("alpha", "beta", "gamma", "psi", "p_hit", "p_free", "p_unknown"):
+            v = getattr(self, name)
+            if not (0 <= v <= 1):
+                raise ValueError(f"hmm.{name} must be a probability, got {v}")
+        if self.gamma + self.psi > 1:
+            raise ValueError("hmm.gamma + hmm.psi must be <= 1")
+        if not (self.max_height > 0):
+            raise ValueError(f"hmm.max_height must be > 0, got {self.max_height}")
+
+
+STATE_STATIC, STATE_MOVING, STATE_EMPTY = 0, 1, 2
+
+
+class OccupancyHMM:
+    """Voxel grid over the ROI box (walker frame) whose cells follow 003's three-state HMM.
+
+    Rows/cols of the state distribution are ordered (O, M, E).  Per frame:
+    ``Q_t ∝ (Q_{t-1}ᵀ A) ⊙ [f, f, 1−f]`` (003), then MAP classification.  Foreground
+    points in cells whose MAP state is O (static in the camera frame, e.g. the
+    walker's own frame) are dropped; moving legs stay M.  Note: a leg that stays
+    completely still for ~2-3 s (≈ 38 / ln((1−α)/(1−γ)) ≈ 76 frames) also becomes
+    static — this is 003's design (moved furniture settles), hence off by default.
+    """
+
+    def __init__(self, config: HmmConfig, roi: RoiConfig) -> None:
+        config.validate()
+        self.config = config
+        cs = config.cell_size
+        self.origin = np.array([roi.near, -roi.right, 0.0])
+        self.dims = (
+            max(1, math.ceil((roi.forward - roi.near) / cs)),
+            max(1, math.ceil((roi.left + roi.right) / cs)),
+            max(1, math.ceil(config.max_height / cs)),
+        )
+        n = int(np.prod(self.dims))
+        self.q: F64 = np.full((n, 3), 1.0 / 3.0)
+        a, b, g, p = config.alpha, config.beta, config.gamma, config.psi
+        self.transition: F64 = np.array([[1 - a, 0.0, a], [p, 1 - g - p, g], [0.0, b, 1 - b]])
+        ix, iy, iz = np.meshgrid(*(np.arange(k) for k in self.dims), indexing="ij")
+        self._centres: F64 = self.origin + (np.stack([ix, iy, iz], axis=-1).reshape(-1, 3) + 0.5) * cs
+        self.states: NDArray[np.int8] = np.full(n, STATE_EMPTY, dtype=np.int8)
+        self.updates = 0
+
+    def observation(self, eps: F64, hit: BoolArray) -> F64:
+        """f(ε): likelihood of the occupied states (O, M) per voxel; E gets 1 − f.
+
+        Shape of 003 Fig. 3 (reproduced qualitatively; the paper gives no numbers):
+        ``p_hit`` when the voxel holds foreground points (ε ≈ 0), ``p_free`` when the
+        measured surface is behind the voxel (ε > ``free_margin``: seen through),
+        ``p_unknown`` when the voxel is hidden (ε < 0), unobserved or the depth is missing.
+        """
+        cfg = self.config
+        f = np.full(eps.shape, cfg.p_unknown)
+        f[eps > cfg.free_margin] = cfg.p_free  # NaN compares False -> unknown
+        f[hit] = cfg.p_hit
+        return f
+
+    def cell_index(self, points_walker: NDArray[np.floating]) -> NDArray[np.intp]:
+        """Flat cell index of ``(N, 3)`` walker-frame points; -1 outside the grid."""
+        p = np.asarray(points_walker, dtype=np.float64).reshape(-1, 3)
+        idx = np.floor((p - self.origin) / self.config.cell_size)
+        dims = np.asarray(self.dims)
+        inside = np.all((idx >= 0) & (idx < dims), axis=1)
+        idx = np.where(inside[:, None], idx, 0).astype(np.intp)
+        flat = np.ravel_multi_index((idx[:, 0], idx[:, 1], idx[:, 2]), self.dims)
+        return np.where(inside, flat, -1)
+
+    def update(
+        self,
+        *,
+        points_walker: NDArray[np.floating],
+        floor: FloorPlane,
+        depth_m: NDArray[np.floating] | None = None,
+        intrinsics: CameraIntrinsics | None = None,
+    ) -> NDArray[np.int8]:
+        """One HMM step from this frame's candidate foreground points (walker frame, ``(N, 3)``).
+
+        Free-space evidence needs ``depth_m`` and ``intrinsics`` (voxel centres are
+        projected into the depth image); without them only hits are used.
+        Returns the MAP state per cell (0 = O, 1 = M, 2 = E).
+        """
+        n_cells = self.q.shape[0]
+        cell = self.cell_index(points_walker)
+        counts = np.bincount(cell[cell >= 0], minlength=n_cells)
+        hit = counts >= self.config.min_points
+        eps = np.full(n_cells, np.nan)
+        if depth_m is not None and intrinsics is not None and floor.valid:
+            rot, t = floor.walker_transform()
+            cam = (self._centres - t) @ rot  # p_cam = Rᵀ (p_walker − t)
+            uv = intrinsics.project(cam)
+            with np.errstate(invalid="ignore"):
+                u = np.rint(uv[:, 0])
+                v = np.rint(uv[:, 1])
+                ok = (u >= 0) & (u < depth_m.shape[1]) & (v >= 0) & (v < depth_m.shape[0])
+            ui, vi = u[ok].astype(np.intp), v[ok].astype(np.intp)
+            eps[ok] = depth_m[vi, ui] - cam[ok, 2]
+        f = self.observation(eps, hit)
+        pred = self.q @ self.transition
+        pred[:, 0] *= f
+        pred[:, 1] *= f
+        pred[:, 2] *= 1.0 - f
+        total = pred.sum(axis=1, keepdims=True)
+        bad = ~(total[:, 0] > 0)
+        pred[bad] = 1.0 / 3.0
+        total[bad] = 1.0
+        self.q = pred / total
+        self.states = np.argmax(self.q, axis=1).astype(np.int8)
+        self.updates += 1
+        return self.states
+
+    def static_points(self, points_walker: NDArray[np.floating]) -> BoolArray:
+        """Bool per point: it lies in a cell whose MAP state is static (O)."""
+        cell = self.cell_index(points_walker)
+        out = np.zeros(cell.shape[0], dtype=bool)
+        inside = cell >= 0
+        out[inside] = self.states[cell[inside]] == STATE_STATIC
+        return out
+
+
+# =========================================================================== segmenter
+
+
+FLOOR_METHODS: tuple[str, ...] = ("plane", "background")
+
+
+@dataclass(kw_only=True)
+class SegmenterConfig:
+    """Foreground segmentation parameters (become ROS parameters; nested names like ``roi.forward``)."""
+
+    floor_method: str = "plane"
+    """``"plane"``: points below ``roi.min_height`` above the fitted floor are floor;
+    ``"background"``: the seed's per-pixel background-frame subtraction."""
+    roi: RoiConfig = field(default_factory=RoiConfig)
+    floor: FloorConfig = field(default_factory=FloorConfig)
+    min_range: float = 0.2
+    """Depths nearer than this (m) are ignored."""
+    max_range: float = 8.0
+    """Depths farther than this (m) are ignored."""
+    background_threshold: float = 0.02
+    """Background subtraction threshold at zero range (m)."""
+    background_threshold_per_m2: float = 0.0092
+    """Growth of the background threshold with the squared background depth (m per m²);
+    0.0092 = 3 raw Kinect disparity units via eq. (1)."""
+    background_frames: int = 30
+    """Frames of the empty scene learned as background when no model is given (frames)."""
+    background_path: str = ""
+    """``.npz`` background model to load at start ("" = learn from the first ``background_frames``)."""
+    require_floor: bool = True
+    """With no floor plane ever found, output an empty foreground (True) or — background method
+    only — fall back to a camera-frame box (False)."""
+    use_occupancy_hmm: bool = False
+    """Remove structure static in the camera frame with :class:`OccupancyHMM`."""
+    hmm: HmmConfig = field(default_factory=HmmConfig)
+
+    def validate(self) -> None:
+        """Raise ``ValueError`` naming the first invalid field."""
+        if self.floor_method not in FLOOR_METHODS:
+            raise ValueError(f"floor_method must be one of {FLOOR_METHODS}, got {self.floor_method!r}")
+        if not (0 <= self.min_range < self.max_range):
+            raise ValueError(f"need 0 <= min_range < max_range, got {self.min_range}, {self.max_range}")
+        if self.background_threshold < 0 or self.background_threshold_per_m2 < 0:
+            raise ValueError("background thresholds must be >= 0")
+        if self.background_frames < 1:
+            raise ValueError(f"background_frames must be >= 1, got {self.background_frames}")
+        self.roi.validate()
+        self.floor.validate()
+        self.hmm.validate()
+
+
+@dataclass(kw_only=True)
+class Segmentation:
+    """Result of :meth:`Segmenter.process` for one frame."""
+
+    mask: BoolArray
+    """``(H, W)`` bool, True = foreground (leg) pixel, aligned with the depth image."""
+    points: F32
+    """``(N, 3)`` float32 foreground points, camera optical frame (m), finite, row-major pixel order."""
+    floor: FloorPlane
+    """Current floor plane (``valid=False`` if never found)."""
+    status: str = "ok"
+    """``ok``, ``no_floor`` (never found), ``learning_background``, ``background_mismatch``
+    (model size differs from the image), ``empty`` (no valid depth)."""
+    floor_visible: bool = False
+    """The floor was measured in this frame (else the last plane was kept)."""
+    floor_refit: bool = False
+    """RANSAC ran in this frame."""
+    n_valid: int = 0
+    """Valid depth pixels within ``[min_range, max_range]``."""
+    n_floor: int = 0
+    """Valid pixels removed as floor/background."""
+    n_outside_roi: int = 0
+    """Valid non-floor pixels outside the ROI box."""
+    n_static: int = 0
+    """Pixels removed by the occupancy HMM."""
+    n_foreground: int = 0
+    """Foreground pixels (= ``len(points)``)."""
+
+    def foreground_depth(self, depth_m: NDArray[np.floating]) -> F32:
+        """Copy of ``depth_m`` (float32, m) with NaN outside the foreground mask."""
+        return np.where(self.mask, depth_m, np.float32(np.nan)).astype(np.float32, copy=False)
+
+
+class Segmenter:
+    """Per-frame floor removal + ROI (+ optional static-structure removal).
+
+    ``intrinsics`` is only needed for the occupancy HMM's free-space evidence.
+    Counters: ``frames``, ``empty_frames``, and the floor tracker's.
+    """
+
+    def __init__(
+        self,
+        config: SegmenterConfig | None = None,
+        *,
+        rng: np.random.Generator,
+        intrinsics: CameraIntrinsics | None = None,
+        background: BackgroundModel | None = None,
+    ) -> None:
+        self.config = config or SegmenterConfig()
+        self.config.validate()
+        self.floor_tracker = FloorTracker(self.config.floor, rng=rng)
+        self.intrinsics = intrinsics
+        self.background = background
+        if background is None and self.config.background_path:
+            self.background = BackgroundModel.load(self.config.background_path)
+        self._bg_frames: list[F32] = []
+        self.hmm: OccupancyHMM | None = (
+            OccupancyHMM(self.config.hmm, self.config.roi) if self.config.use_occupancy_hmm else None
+        )
+        self.frames = 0
+        self.empty_frames = 0
+
+    def set_background(self, model: BackgroundModel | None) -> None:
+        """Use ``model`` (None = learn again from the next ``background_frames`` frames)."""
+        self.background = model
+        self._bg_frames = []
+
+    @property
+    def floor(self) -> FloorPlane:
+        """Current tracked floor plane."""
+        return self.floor_tracker.plane
+
+    def _empty(self, shape: tuple[int, int], status: str, **counts: int) -> Segmentation:
+        self.empty_frames += 1
+        return Segmentation(
+            mask=np.zeros(shape, dtype=bool),
+            points=np.empty((0, 3), dtype=np.float32),
+            floor=self.floor_tracker.plane,
+            status=status,
+            floor_visible=self.floor_tracker.floor_visible,
+            floor_refit=self.floor_tracker.refit_this_frame,
+            **counts,
+        )
+
+    def process(self, depth_m: NDArray[np.floating], points: NDArray[np.floating]) -> Segmentation:
+        """Segment one frame.
+
+        ``depth_m``: ``(H, W)`` float32 metres (NaN invalid); ``points``: its ``(H, W, 3)``
+        camera-frame back-projection.  Never raises on decoded frames (all-NaN,
+        no floor, tiny images...): such frames give an empty foreground.
+
+        Raises:
+            ValueError: ``depth_m``/``points`` shapes are inconsistent (a programming error).
+        """
+        with np.errstate(all="ignore"):  # NaN/huge values are expected in depth data
+            return self._process(depth_m, points)
+
+    def _process(self, depth_m: NDArray[np.floating], points: NDArray[np.floating]) -> Segmentation:
+        cfg = self.config
+        roi = cfg.roi
+        self.frames += 1
+        if depth_m.ndim != 2 or points.shape != (*depth_m.shape, 3):
+            raise ValueError(f"points shape {points.shape} does not match depth shape {depth_m.shape} + (3,)")
+        shape = (int(depth_m.shape[0]), int(depth_m.shape[1]))
+        z = depth_m if depth_m.dtype == np.float32 else depth_m.astype(np.float32)
+        valid = (z >= cfg.min_range) & (z <= cfg.max_range)  # NaN -> False
+        n_valid = int(np.count_nonzero(valid))
+
+        floor = self.floor_tracker.update(points)
+
+        if cfg.floor_method == "background" and self.background is None:
+            self._bg_frames.append(np.array(z, dtype=np.float32))
+            if len(self._bg_frames) >= cfg.background_frames:
+                self.background = BackgroundModel.from_frames(self._bg_frames)
+                self._bg_frames = []
+            return self._empty(shape, "learning_background", n_valid=n_valid)
+        if n_valid == 0:
+            return self._empty(shape, "empty")
+
+        pts = points.reshape(-1, 3)
+        if pts.dtype != np.float32:
+            pts = pts.astype(np.float32)
+        zf = z.reshape(-1)
+        xw: NDArray[np.float32] | None = None
+        yw: NDArray[np.float32] | None = None
+        h: NDArray[np.float32] | None = None
+        if floor.valid:
+            rot, _ = floor.walker_transform()
+            xw = pts @ rot[0].astype(np.float32)
+            yw = pts @ rot[1].astype(np.float32)
+            h = pts @ rot[2].astype(np.float32)
+            h += np.float32(floor.offset)
+            in_roi = (xw <= roi.forward) & (xw >= roi.near) & (yw <= roi.left) & (yw >= -roi.right)
+            if roi.max_height is not None:
+                in_roi &= h <= roi.max_height
+        elif cfg.floor_method == "background" and not cfg.require_floor:
+            # seed's camera-frame box: optical z forward, camera's left = optical -x
+            x = pts[:, 0]
+            in_roi = (zf <= roi.forward) & (zf >= roi.near) & (x >= -roi.left) & (x <= roi.right)
+        else:
+            return self._empty(shape, "no_floor", n_valid=n_valid)
+
+        valid_f = valid.reshape(-1)
+        if cfg.floor_method == "plane":
+            assert h is not None
+            if roi.min_height_per_m2 > 0:
+                not_floor = h > roi.min_height + np.float32(roi.min_height_per_m2) * zf * zf
+            else:
+                not_floor = h > roi.min_height
+        else:
+            assert self.background is not None
+            if self.background.shape != shape:
+                return self._empty(shape, "background_mismatch", n_valid=n_valid)
+            not_floor = self.background.foreground_mask(
+                z, threshold=cfg.background_threshold, threshold_per_m2=cfg.background_threshold_per_m2
+            ).reshape(-1)
+        cand_nf = valid_f & not_floor
+        n_not_floor = int(np.count_nonzero(cand_nf))
+        mask = cand_nf & in_roi
+        n_static = 0
+        if self.hmm is not None and floor.valid and xw is not None and yw is not None and h is not None:
+            idx = np.flatnonzero(mask)
+            pw = np.stack([xw[idx], yw[idx], h[idx]], axis=1)
+            self.hmm.update(points_walker=pw, floor=floor, depth_m=z, intrinsics=self.intrinsics)
+            static = self.hmm.static_points(pw)
+            n_static = int(np.count_nonzero(static))
+            mask[idx[static]] = False
+        fg = pts[mask]
+        n_fg = int(fg.shape[0])
+        return Segmentation(
+            mask=mask.reshape(shape),
+            points=fg,
+            floor=floor,
+            status="ok",
+            floor_visible=self.floor_tracker.floor_visible,
+            floor_refit=self.floor_tracker.refit_this_frame,
+            n_valid=n_valid,
+            n_floor=n_valid - n_not_floor,
+            n_outside_roi=n_not_floor - n_fg - n_static,
+            n_static=n_static,
+            n_foreground=n_fg,
+        )

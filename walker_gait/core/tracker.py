@@ -1,0 +1,645 @@
+"""Particle-filter leg tracker (seed paper §4) with partitioned annealed sampling.
+
+Pipeline of one :meth:`LegTracker.update` (camera frame in, camera frame out; the model
+lives in the floor-aligned *body* frame of :mod:`walker_gait.core.leg_model`):
+
+1. foreground check: fewer than ``min_fg_points`` points → ``NO_USER`` and the particle set is
+   dropped (the next frame with legs re-initialises);
+2. (re-)initialisation when there is no particle set: the foreground (body frame) is split
+   into two leg blobs along the anatomical left axis (2-means on y; left = +y, so identity
+   is fixed by geometry), hip positions are fitted from the blobs and particles are sampled
+   around a standing pose; the first frame is searched with ``init_rounds`` extra rounds
+   (status ``SEARCHING``);
+3. prediction: constant velocity on the 12 joint angles (eq. 3, damped by
+   ``velocity_damping``), Gaussian noise on all other elements;
+4. weighting / sampling: ``paper`` = one SIR step with the full likelihood (eq. 10).
+   ``default`` = partitioned annealed sampling (MacCormick & Isard partitioned sampling
+   combined with Deutscher's annealing, as in seed 003 §III-C, and the hierarchical
+   weighting/resampling of seed 001): stages *root* (hips, pelvis, shape; both legs) →
+   *left leg* → *right leg*; in each stage ``n_layers`` layers of
+   diffuse-that-partition → weight (``β_layer`` × stage likelihood) → resample.  Leg stages
+   use only that leg's terms, with the other leg held at the current estimate
+   (``ref`` foreground costs and ref render), which removes the other leg's noise from the
+   weights;
+5. final weights with the full likelihood; estimate = weighted mean (points and angles);
+6. hidden-part handling: per-segment visibility of the estimate by comparing its rendered
+   depth with the observed depth, a VISIBLE/HIDDEN state machine per segment (seed 003
+   fig. 7); hidden segments are left out of ``d_MF`` (carried by the dynamics) and, when a
+   segment re-appears, its leg is searched with ``reappear_noise_gain`` × noise for
+   ``reappear_frames`` frames;
+7. status/confidence from the foreground support of the estimate; a lost track
+   (confidence < ``lost_confidence`` for ``lost_frames`` frames) re-initialises.
+
+Left/right identity: the state keeps the left hip at +y (anatomical left) of the right hip
+(``|hip_azimuth| < 0.7``) and the detection assigns blobs by the same axis, so legs cannot
+swap; ``mounting`` decides how anatomical axes map to the camera
+(``facing_user``: the user's left appears on the image's right, +x camera).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, replace
+from typing import Literal
+
+import numpy as np
+from numpy.typing import NDArray
+
+from walker_gait.core import leg_model as lm
+from walker_gait.core.leg_model import BodyFrame, Kinematics, StateLayout
+from walker_gait.core.likelihood import (
+    PAPER_LAMBDA_2D,
+    PAPER_LAMBDA_3D,
+    Cue2DParams,
+    Cue3DParams,
+    CueImage,
+    foreground_costs,
+    log_likelihood_2d,
+    log_likelihood_3d,
+    project_bbox,
+    render_depth,
+    union_bbox,
+)
+from walker_gait.core.resampling import effective_sample_size, normalise_log_weights, resample
+from walker_gait.core.types import (
+    JOINT_NAMES,
+    CameraIntrinsics,
+    FloorPlane,
+    LegPose,
+    TrackStatus,
+)
+
+FloatArray = NDArray[np.float64]
+L = StateLayout
+
+Cue = Literal["3d", "2d", "combined"]
+
+
+class TrackerInputError(ValueError):
+    """Malformed input to :meth:`LegTracker.update` (shapes, dtypes, invalid floor)."""
+
+
+@dataclass(frozen=True, kw_only=True)
+class TrackerConfig:
+    """Leg tracker parameters (become ROS parameters). Units SI; noise std-devs are per frame."""
+
+    n_particles: int = 160  # particles
+    cue: Cue = "combined"  # "3d" (eq. 7), "2d" (eq. 9) or "combined" (eq. 10)
+    # 3D cue
+    fg_fraction: float = 0.1  # fraction of foreground points used by the 3D cue (paper 10 %)
+    fg_max_points: int = 160  # cap on that number (0 = no cap)
+    n_skeleton: int = 10  # interior skeleton points per segment (paper n = 10)
+    lambda_3d: float = PAPER_LAMBDA_3D  # eq. 7 rate in 1/m (paper 1/5 mm^-1 = 200 m^-1)
+    truncate_3d: float = math.inf  # m, per-point distance cap
+    # 2D cue
+    lambda_2d: float = PAPER_LAMBDA_2D  # eq. 9 rate in 1/m (paper 1/3 mm^-1 = 333 m^-1)
+    cue2d_stride: int = 1  # 2D cue image = depth image / stride (paper: full 640x480)
+    truncate_2d: float = math.inf  # m, per-pixel cost cap
+    # occlusion / hidden parts
+    occlusion_aware: bool = False  # occlusion-aware cues (see likelihood module)
+    hidden_parts: bool = False  # VISIBLE/HIDDEN state machine per segment
+    hide_below: float = 0.25  # visible fraction under which a segment becomes HIDDEN
+    show_above: float = 0.5  # visible fraction over which a HIDDEN segment is VISIBLE again
+    reappear_noise_gain: float = 2.0  # noise gain on a leg whose segment re-appeared
+    reappear_frames: int = 5  # frames the gain lasts
+    # sampling
+    partitioned: bool = False  # root -> left leg -> right leg partitions
+    n_layers: int = 1  # annealing layers per partition
+    anneal_betas: tuple[float, ...] = (1.0,)  # likelihood exponent per layer (last = final)
+    layer_noise_decay: float = 0.5  # noise factor between successive layers
+    resample_scheme: str = "systematic"
+    init_rounds: int = 4  # extra search rounds (all partitions, shrinking noise) on (re-)init
+    init_noise_gain: float = 3.0  # noise gain of the first search round
+    # dynamics (eq. 3 on angles, random walk elsewhere)
+    velocity_damping: float = 1.0  # 1 = paper's constant velocity
+    sigma_root: float = 0.015  # m, right hip x/y
+    sigma_hip_dist: float = 0.003  # m
+    sigma_pelvis: float = 0.02  # rad, hip azimuth / elevation
+    sigma_length: float = 0.003  # m, segment lengths
+    sigma_radius: float = 0.001  # m, radii
+    sigma_hip: float = 0.05  # rad, hip flexion/abduction/rotation
+    sigma_knee: float = 0.08  # rad
+    sigma_ankle: float = 0.07  # rad
+    # track management
+    min_fg_points: int = 60  # fewer foreground points = no user
+    track_confidence: float = 0.55  # confidence for TRACKING
+    degraded_confidence: float = 0.4  # below: DEGRADED
+    lost_confidence: float = 0.25  # below this for `lost_frames` frames: re-initialise
+    lost_frames: int = 8
+    support_tol: float = 0.04  # m, surface distance counted as support for the confidence
+
+    def __post_init__(self) -> None:
+        if self.cue not in ("3d", "2d", "combined"):
+            raise ValueError(f"cue must be '3d', '2d' or 'combined', got {self.cue!r}")
+        if self.n_particles < 2:
+            raise ValueError("n_particles must be >= 2")
+        if len(self.anneal_betas) != self.n_layers:
+            raise ValueError("anneal_betas needs one entry per layer")
+        if self.cue2d_stride < 1:
+            raise ValueError("cue2d_stride must be >= 1")
+
+    def noise_vector(self) -> FloatArray:
+        """Per-element diffusion std-devs ``(23,)``."""
+        s = np.zeros(lm.STATE_DIM)
+        s[L.HIP_DIST] = self.sigma_hip_dist
+        s[L.HIP_AZ] = s[L.HIP_EL] = self.sigma_pelvis
+        s[L.ROOT_X] = s[L.ROOT_Y] = self.sigma_root
+        s[L.ROOT_Z] = 0.0  # determined by the floor contact
+        s[L.LEN_THIGH : L.LEN_FOOT + 1] = self.sigma_length
+        s[L.RAD_THIGH : L.RAD_CALF + 1] = self.sigma_radius
+        for leg in (L.LEFT, L.RIGHT):
+            block = np.array([self.sigma_hip] * 3 + [self.sigma_knee] + [self.sigma_ankle] * 2)
+            s[leg] = block
+        return s
+
+
+PAPER = TrackerConfig(
+    n_particles=5000,
+    cue="combined",
+    fg_fraction=0.1,
+    fg_max_points=0,
+    n_skeleton=10,
+    lambda_3d=PAPER_LAMBDA_3D,
+    lambda_2d=PAPER_LAMBDA_2D,
+    cue2d_stride=1,
+    partitioned=False,
+    n_layers=1,
+    anneal_betas=(1.0,),
+    init_rounds=4,
+)
+"""Seed paper: 5000 particles, full-resolution 2D cue, 10 % foreground, n = 10, λ1 = 1/5 mm⁻¹,
+λ2 = 1/3 mm⁻¹, plain SIR (no partitions/annealing), constant velocity."""
+
+DEFAULT = TrackerConfig(
+    n_particles=128,
+    cue="combined",
+    fg_fraction=0.1,
+    fg_max_points=128,
+    n_skeleton=6,
+    lambda_3d=4.0 * PAPER_LAMBDA_3D,
+    lambda_2d=4.0 * PAPER_LAMBDA_2D,
+    truncate_3d=0.15,
+    cue2d_stride=8,
+    truncate_2d=0.5,
+    occlusion_aware=True,
+    hidden_parts=True,
+    partitioned=True,
+    n_layers=2,
+    anneal_betas=(0.5, 1.0),
+    velocity_damping=0.7,
+    init_rounds=6,
+)
+"""Real-time preset: partitioned annealed sampling with few particles, 80x60 2D cue."""
+
+PRESETS: dict[str, TrackerConfig] = {"paper": PAPER, "default": DEFAULT}
+
+
+def preset(name: str, **overrides: object) -> TrackerConfig:
+    """A named preset (``paper`` / ``default``) with optional field overrides."""
+    if name not in PRESETS:
+        raise ValueError(f"unknown tracker preset {name!r}; choose one of {sorted(PRESETS)}")
+    return replace(PRESETS[name], **overrides)  # type: ignore[arg-type]
+
+
+@dataclass
+class _Reference:
+    """Fixed model part (the other leg) for partitioned weighting."""
+
+    fg_costs: NDArray[np.float32] | None = None
+    render: NDArray[np.float32] | None = None
+    segments: FloatArray | None = None  # (1, S, 2, 3) camera frame
+    radii: FloatArray | None = None
+
+
+@dataclass
+class _Frame:
+    """Per-frame observation, prepared once."""
+
+    body: BodyFrame
+    fg: FloatArray  # (N, 3) sub-sampled foreground, camera frame
+    fg_all_body: FloatArray  # (M, 3) all foreground points, body frame
+    cue: CueImage
+
+
+@dataclass
+class _HiddenState:
+    hidden: np.ndarray = field(default_factory=lambda: np.zeros((2, 3), dtype=bool))
+    low_count: np.ndarray = field(default_factory=lambda: np.zeros((2, 3), dtype=int))
+    boost: np.ndarray = field(default_factory=lambda: np.zeros(2, dtype=int))  # frames left per leg
+
+
+class LegTracker:
+    """Particle-filter tracker of both legs (see module docstring).
+
+    ``rng`` drives every random choice, so a seeded Generator makes the tracker deterministic.
+    """
+
+    def __init__(
+        self,
+        config: TrackerConfig,
+        intrinsics: CameraIntrinsics,
+        *,
+        rng: np.random.Generator,
+        mounting: str = "facing_user",
+    ) -> None:
+        if mounting not in ("facing_user", "facing_forward"):
+            raise ValueError(f"mounting must be 'facing_user' or 'facing_forward', got {mounting!r}")
+        self.config = config
+        self.intrinsics = intrinsics
+        self.rng = rng
+        self.mounting = mounting
+        self._noise = config.noise_vector()
+        self._angle_mask = StateLayout.angle_mask()
+        self._p3 = Cue3DParams(
+            lam=config.lambda_3d,
+            n_skeleton=config.n_skeleton,
+            occlusion_aware=config.occlusion_aware,
+            truncate=config.truncate_3d,
+        )
+        self._p2 = Cue2DParams(
+            lam=config.lambda_2d,
+            stride=config.cue2d_stride,
+            truncate=config.truncate_2d,
+            occlusion_aware=config.occlusion_aware,
+        )
+        self._floor_clip = np.array([False, False, True] * 2)
+        self.reset()
+
+    # ------------------------------------------------------------------ public API
+    def reset(self) -> None:
+        """Forget the track (next frame with legs re-initialises)."""
+        self._x: FloatArray | None = None  # (P, 23) particles, body frame
+        self._x_prev: FloatArray | None = None
+        self._logw: FloatArray | None = None
+        self._mean: FloatArray | None = None
+        self._low_conf = 0
+        self._frames_tracked = 0
+        self._hidden = _HiddenState()
+        self.status = TrackStatus.NO_USER
+
+    @property
+    def particles(self) -> FloatArray | None:
+        """Current ``(P, 23)`` particle states (body frame), or None when not tracking."""
+        return None if self._x is None else self._x.copy()
+
+    def update(
+        self,
+        *,
+        stamp: float,
+        points: NDArray[np.floating],
+        depth_fg: NDArray[np.floating],
+        floor: FloorPlane,
+    ) -> LegPose:
+        """Track one frame.
+
+        ``points``: ``(N, 3)`` foreground points, camera optical frame (m);
+        ``depth_fg``: ``(H, W)`` foreground depth (m), NaN elsewhere, same size as the intrinsics;
+        ``floor``: floor plane in the camera frame.  Returns the pose in the camera frame.
+        """
+        pts = np.asarray(points, dtype=np.float64)
+        if pts.ndim != 2 or pts.shape[1] != 3:
+            raise TrackerInputError(f"points must be (N, 3), got {pts.shape}")
+        depth = np.asarray(depth_fg)
+        if depth.shape != (self.intrinsics.height, self.intrinsics.width):
+            msg = f"depth_fg shape {depth.shape} does not match the intrinsics {self.intrinsics.height}x{self.intrinsics.width}"
+            raise TrackerInputError(msg)
+        if not floor.valid or not np.all(np.isfinite(floor.normal)):
+            raise TrackerInputError("floor plane is invalid")
+        pts = pts[np.all(np.isfinite(pts), axis=1)]
+        cfg = self.config
+
+        if pts.shape[0] < cfg.min_fg_points:
+            self.reset()
+            return self._empty_pose(stamp)
+
+        frame = self._prepare(pts, depth, floor)
+        searching = False
+        if self._x is None:
+            self._initialise(frame)
+            searching = True
+        else:
+            self._step(frame)
+
+        logw = self._evaluate(frame, self._x, legs=(0, 1), ref=None)
+        self._logw = logw
+        pose, conf = self._estimate(frame, stamp)
+        # track management
+        if conf < cfg.lost_confidence:
+            self._low_conf += 1
+        else:
+            self._low_conf = 0
+        if searching or self.status == TrackStatus.SEARCHING:
+            status = TrackStatus.TRACKING if conf >= cfg.track_confidence else TrackStatus.SEARCHING
+        else:
+            status = TrackStatus.TRACKING if conf >= cfg.degraded_confidence else TrackStatus.DEGRADED
+        if self._low_conf >= cfg.lost_frames:
+            # lost: re-initialise from the foreground on the next frame
+            self._x = None
+            self._low_conf = 0
+            status = TrackStatus.SEARCHING
+        self.status = status
+        pose.status = status
+        return pose
+
+    # ------------------------------------------------------------------ internals
+    def _empty_pose(self, stamp: float) -> LegPose:
+        return LegPose(
+            stamp=stamp,
+            points=np.full((2, 5, 3), np.nan),
+            angles=np.full(len(JOINT_NAMES), np.nan),
+            status=TrackStatus.NO_USER,
+            confidence=0.0,
+            ess=float("nan"),
+        )
+
+    def _prepare(self, pts: FloatArray, depth: NDArray[np.floating], floor: FloorPlane) -> _Frame:
+        cfg = self.config
+        body = BodyFrame.from_floor(floor, mounting=self.mounting)
+        n = pts.shape[0]
+        k = max(1, int(math.ceil(cfg.fg_fraction * n)))
+        if cfg.fg_max_points > 0:
+            k = min(k, cfg.fg_max_points)
+        k = min(k, n)
+        idx = self.rng.choice(n, size=k, replace=False) if k < n else np.arange(n)
+        cue = CueImage.from_depth(depth, intrinsics=self.intrinsics, stride=cfg.cue2d_stride, floor=floor)
+        return _Frame(body=body, fg=pts[np.sort(idx)], fg_all_body=body.to_body(pts), cue=cue)
+
+    # -- likelihood -------------------------------------------------------------
+    def _cam_segments(self, frame: _Frame, kin: Kinematics, legs: tuple[int, ...]) -> tuple[FloatArray, FloatArray]:
+        seg = kin.segments[:, list(legs)]  # (P, nl, 3, 2, 3)
+        p = seg.shape[0]
+        seg_c = frame.body.to_camera(seg).reshape(p, 3 * len(legs), 2, 3)
+        rad = kin.radii[:, list(legs)].reshape(p, 3 * len(legs), 2)
+        return seg_c, rad
+
+    def _active(self, legs: tuple[int, ...]) -> np.ndarray | None:
+        if not self.config.hidden_parts:
+            return None
+        return ~self._hidden.hidden[list(legs)].ravel()
+
+    def _evaluate(
+        self,
+        frame: _Frame,
+        states: FloatArray,
+        *,
+        legs: tuple[int, ...],
+        ref: _Reference | None,
+        kin: Kinematics | None = None,
+    ) -> FloatArray:
+        """Log likelihood ``(P,)`` of ``states`` using the segments of ``legs`` (+ ``ref``)."""
+        cfg = self.config
+        if kin is None:
+            kin = lm.forward_kinematics(states)
+        seg, rad = self._cam_segments(frame, kin, legs)
+        total = np.zeros(states.shape[0])
+        if cfg.cue in ("3d", "combined"):
+            total += log_likelihood_3d(
+                seg,
+                rad,
+                fg=frame.fg,
+                params=self._p3,
+                ref_fg_costs=None if ref is None else ref.fg_costs,
+                active=self._active(legs),
+                cue_image=frame.cue,
+            )
+        if cfg.cue in ("2d", "combined"):
+            bbox = union_bbox(frame.cue.fg_bbox, project_bbox(seg, rad, intrinsics=frame.cue.intrinsics))
+            ref_render = None
+            if ref is not None and ref.segments is not None:
+                bbox = union_bbox(bbox, project_bbox(ref.segments, ref.radii, intrinsics=frame.cue.intrinsics))
+                assert bbox is not None
+                ref_render = render_depth(
+                    ref.segments, ref.radii, cue=frame.cue, bbox=bbox, floor_clip=self._floor_clip[:3]
+                )[0]
+            total += log_likelihood_2d(
+                seg,
+                rad,
+                cue=frame.cue,
+                params=self._p2,
+                bbox=bbox,
+                ref_render=ref_render,
+                floor_clip=self._floor_clip[: seg.shape[1]],
+            )
+        return total
+
+    def _reference(self, frame: _Frame, state: FloatArray, leg: int) -> _Reference:
+        kin = lm.forward_kinematics(state[None])
+        seg, rad = self._cam_segments(frame, kin, (leg,))
+        ref = _Reference(segments=seg, radii=rad)
+        if self.config.cue in ("3d", "combined"):
+            ref.fg_costs = foreground_costs(seg, rad, fg=frame.fg, n=self.config.n_skeleton)[0]
+        return ref
+
+    # -- sampling -----------------------------------------------------------------
+    def _weighted_mean(self, states: FloatArray, logw: FloatArray) -> FloatArray:
+        w = normalise_log_weights(logw)
+        return w @ states
+
+    def _diffuse(self, x: FloatArray, dims: np.ndarray, gain: float | FloatArray) -> tuple[FloatArray, Kinematics]:
+        sigma = np.where(dims, self._noise, 0.0)
+        noise = self.rng.standard_normal(x.shape) * sigma
+        if np.ndim(gain) == 1:
+            noise *= gain
+        else:
+            noise *= float(gain)  # type: ignore[arg-type]
+        new, kin, _ = lm.enforce_constraints(x + noise, fallback=x)
+        return new, kin
+
+    def _leg_gain(self) -> FloatArray:
+        g = np.ones(lm.STATE_DIM)
+        for side in (0, 1):
+            if self._hidden.boost[side] > 0:
+                g[L.leg(side)] = self.config.reappear_noise_gain
+        return g
+
+    def _stages(self) -> list[tuple[np.ndarray, tuple[int, ...], int | None]]:
+        """(dims mask, legs evaluated, reference leg) per partition."""
+        if not self.config.partitioned:
+            return [(np.ones(lm.STATE_DIM, dtype=bool), (0, 1), None)]
+        root = np.zeros(lm.STATE_DIM, dtype=bool)
+        root[:11] = True
+        left = np.zeros(lm.STATE_DIM, dtype=bool)
+        left[L.LEFT] = True
+        right = np.zeros(lm.STATE_DIM, dtype=bool)
+        right[L.RIGHT] = True
+        return [(root, (0, 1), None), (left, (0,), 1), (right, (1,), 0)]
+
+    def _run_stages(self, frame: _Frame, x: FloatArray, *, gain: float | FloatArray, layers: int, betas: tuple[float, ...]) -> FloatArray:
+        """Partitioned annealed search; returns resampled particles (uniform weights)."""
+        cfg = self.config
+        for dims, legs, ref_leg in self._stages():
+            ref = None
+            if ref_leg is not None:
+                ref = self._reference(frame, self._mean_estimate(x), ref_leg)
+            for layer in range(layers):
+                layer_gain = gain * cfg.layer_noise_decay**layer
+                x_new, kin = self._diffuse(x, dims, layer_gain)
+                ll = self._evaluate(frame, x_new, legs=legs, ref=ref, kin=kin)
+                idx = resample(betas[layer] * ll, rng=self.rng, scheme=cfg.resample_scheme)
+                x = x_new[idx]
+                self._x_prev = self._x_prev[idx] if self._x_prev is not None else None
+        return x
+
+    def _mean_estimate(self, x: FloatArray) -> FloatArray:
+        m = x.mean(axis=0)
+        return lm.enforce_constraints(m[None])[0][0]
+
+    def _step(self, frame: _Frame) -> None:
+        cfg = self.config
+        assert self._x is not None and self._logw is not None
+        # resample with last frame's final weights
+        idx = resample(self._logw, rng=self.rng, scheme=cfg.resample_scheme)
+        x = self._x[idx]
+        prev = self._x_prev[idx] if self._x_prev is not None else x.copy()
+        # constant velocity on joint angles (eq. 3)
+        vel = np.where(self._angle_mask, x - prev, 0.0) * cfg.velocity_damping
+        self._x_prev = x.copy()
+        x_pred, _, _ = lm.enforce_constraints(x + vel, fallback=x)
+        gain = self._leg_gain()
+        if cfg.partitioned or cfg.n_layers > 1:
+            x = self._run_stages(frame, x_pred, gain=gain, layers=cfg.n_layers, betas=cfg.anneal_betas)
+        else:
+            x, _ = self._diffuse(x_pred, np.ones(lm.STATE_DIM, dtype=bool), gain)
+        self._x = x
+        self._hidden.boost = np.maximum(self._hidden.boost - 1, 0)
+
+    # -- initialisation -----------------------------------------------------------
+    def _detect(self, frame: _Frame) -> FloatArray:
+        """A standing-pose state fitted to the two leg blobs of the foreground (body frame)."""
+        pb = frame.fg_all_body
+        sel = pb[(pb[:, 2] > 0.03) & (pb[:, 2] < 0.7)]
+        if sel.shape[0] < 10:
+            sel = pb
+        y = sel[:, 1]
+        c = np.percentile(y, [25.0, 75.0])
+        for _ in range(10):
+            lab = np.abs(y - c[0]) > np.abs(y - c[1])  # True = +y cluster = LEFT
+            if lab.all() or (~lab).all():
+                break
+            c = np.array([y[~lab].mean(), y[lab].mean()])
+        mid = 0.5 * (c[0] + c[1])
+        sep = float(np.clip(c[1] - c[0], 0.14, 0.26))
+        y_right, y_left = mid - 0.5 * sep, mid + 0.5 * sep
+        lab = y > mid
+        x_front_r = float(np.median(sel[~lab, 0])) if np.any(~lab) else float(np.median(sel[:, 0]))
+        x_front_l = float(np.median(sel[lab, 0])) if np.any(lab) else float(np.median(sel[:, 0]))
+        # the observed surface faces the camera (anatomical front for facing_user, back otherwise)
+        toward_cam = 1.0 if self.mounting == "facing_user" else -1.0
+        x_r = x_front_r - toward_cam * 0.05
+        x_l = x_front_l - toward_cam * 0.05
+        state = lm.neutral_state(right_hip_xy=(0.5 * (x_r + x_l), y_right), hip_dist=sep)
+        # legs at different depth: hip flexion of each leg towards its blob (standing pelvis)
+        hip_h = float(lm.MEAN_SHAPE[0] + lm.MEAN_SHAPE[1]) * 0.7
+        for side, xs in ((0, x_l), (1, x_r)):
+            flex = math.atan2(xs - state[L.ROOT_X], hip_h)
+            state[L.leg(side).start + L.HIP_FLEX] = float(np.clip(flex, -0.5, 0.8))
+        state[L.HIP_DIST] = sep
+        _ = y_left
+        return lm.enforce_constraints(state[None])[0][0]
+
+    def _initialise(self, frame: _Frame) -> None:
+        cfg = self.config
+        base = self._detect(frame)
+        p = cfg.n_particles
+        spread = np.zeros(lm.STATE_DIM)
+        spread[L.ROOT_X] = 0.06
+        spread[L.ROOT_Y] = 0.03
+        spread[L.HIP_DIST] = 0.02
+        spread[L.HIP_AZ] = 0.1
+        spread[L.HIP_EL] = 0.03
+        spread[L.SHAPE] = 0.06 * lm.MEAN_SHAPE
+        for leg in (L.LEFT, L.RIGHT):
+            spread[leg] = [0.25, 0.06, 0.12, 0.25, 0.15, 0.06]
+        x = base + self.rng.standard_normal((p, lm.STATE_DIM)) * spread
+        for leg in (L.LEFT, L.RIGHT):
+            k = leg.start + L.KNEE_FLEX
+            x[:, k] = np.abs(x[:, k])
+        x, _, _ = lm.enforce_constraints(x, fallback=np.broadcast_to(base, x.shape).copy())
+        self._x_prev = x.copy()
+        self._hidden = _HiddenState()
+        layers = max(cfg.n_layers, 2)
+        betas = tuple(np.linspace(0.3, 1.0, layers))
+        for r in range(cfg.init_rounds):
+            g = cfg.init_noise_gain * (0.6**r)
+            x = self._run_stages(frame, x, gain=max(g, 1.0), layers=layers, betas=betas)
+        self._x = x
+        self._x_prev = x.copy()
+        self._low_conf = 0
+
+    # -- estimate, visibility, confidence ----------------------------------------------
+    def _estimate(self, frame: _Frame, stamp: float) -> tuple[LegPose, float]:
+        assert self._x is not None and self._logw is not None
+        w = normalise_log_weights(self._logw)
+        mean = w @ self._x
+        kin_all = lm.forward_kinematics(self._x)
+        pts_body = np.einsum("p,pijk->ijk", w, kin_all.points)
+        mean_c, kin_mean, _ = lm.enforce_constraints(mean[None])
+        self._mean = mean_c[0]
+        seg_c, rad = self._cam_segments(frame, kin_mean, (0, 1))
+        visibility = self._visibility(frame, seg_c, rad)
+        conf = self._confidence(frame, seg_c, rad)
+        if self.config.hidden_parts:
+            self._update_hidden(visibility)
+        pose = LegPose(
+            stamp=stamp,
+            points=frame.body.to_camera(pts_body),
+            angles=lm.joint_angles(mean),
+            segments=seg_c[0].reshape(2, 3, 2, 3),
+            radii=rad[0].reshape(2, 3, 2),
+            visibility=visibility,
+            status=self.status,
+            confidence=conf,
+            ess=effective_sample_size(self._logw),
+        )
+        return pose, conf
+
+    def _visibility(self, frame: _Frame, seg_c: FloatArray, rad: FloatArray) -> FloatArray:
+        """``(2, 3)`` fraction of each segment's rendered pixels confirmed by the observed depth."""
+        cue = frame.cue
+        bbox = project_bbox(seg_c, rad, intrinsics=cue.intrinsics)
+        v0, v1, u0, u1 = bbox
+        if v1 <= v0 or u1 <= u0:
+            return np.zeros((2, 3))
+        per_seg = render_depth(
+            seg_c[0][:, None], rad[0][:, None], cue=cue, bbox=bbox, floor_clip=None
+        )  # (6, Npix)
+        for j in (2, 5):  # feet: floor clip
+            per_seg[j] = render_depth(
+                seg_c[0][j][None, None], rad[0][j][None, None], cue=cue, bbox=bbox, floor_clip=np.array([True])
+            )[0]
+        obs = cue.depth[v0:v1, u0:u1].ravel()
+        inside = np.isfinite(per_seg)
+        ok = inside & (obs[None, :] > 0) & (obs[None, :] >= per_seg - 0.05)
+        n_in = inside.sum(axis=1)
+        vis = np.where(n_in > 0, ok.sum(axis=1) / np.maximum(n_in, 1), 0.0)
+        return vis.reshape(2, 3)
+
+    def _confidence(self, frame: _Frame, seg_c: FloatArray, rad: FloatArray) -> float:
+        """Fraction of foreground explained (surface distance < support_tol), averaged with the
+        fraction of unoccluded model skeleton points supported by foreground."""
+        tol = self.config.support_tol
+        fg_cost = foreground_costs(seg_c, rad, fg=frame.fg, n=self.config.n_skeleton)[0]
+        explained = float(np.mean(fg_cost < tol)) if fg_cost.size else 0.0
+        from walker_gait.core.likelihood import skeleton_points
+
+        pts, wd = skeleton_points(seg_c, rad, n=self.config.n_skeleton)
+        pts = pts.reshape(-1, 3)
+        wd = wd.ravel()
+        occ = frame.cue.occluded(pts, wd, tol=0.04)
+        if frame.fg.shape[0] == 0 or np.all(occ):
+            return explained
+        d = np.sqrt(((pts[~occ, None, :] - frame.fg[None, :, :]) ** 2).sum(-1)).min(axis=1)
+        supported = float(np.mean(np.abs(d - wd[~occ]) < tol))
+        return 0.5 * (explained + supported)
+
+    def _update_hidden(self, visibility: FloatArray) -> None:
+        cfg = self.config
+        hs = self._hidden
+        low = visibility < cfg.hide_below
+        hs.low_count = np.where(low, hs.low_count + 1, 0)
+        newly_hidden = ~hs.hidden & (hs.low_count >= 2)
+        reappear = hs.hidden & (visibility > cfg.show_above)
+        hs.hidden = (hs.hidden | newly_hidden) & ~reappear
+        for side in (0, 1):
+            if np.any(reappear[side]):
+                hs.boost[side] = cfg.reappear_frames

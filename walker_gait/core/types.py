@@ -1,0 +1,247 @@
+"""Shared data types and frame conventions of the algorithm core.
+
+Every stage (depth decoding, segmentation, tracker, gait analysis, synthetic
+generator, offline pipeline and ROS nodes) exchanges these types, so they are
+kept small, typed and free of ROS imports.
+
+Frames
+------
+camera optical frame (``camera``)
+    REP-103 optical convention: +x right in the image, +y down, +z along the
+    optical axis.  Metres.  The camera sits on the walker and looks back at the
+    user, so the user's anatomical *left* leg appears on the image's *right*
+    (+x) for the default ``mounting="facing_user"``.
+walker frame (``walker``)
+    Floor-aligned frame attached to the walker, derived from the floor plane:
+    origin = camera centre projected onto the floor, +z up (floor normal),
+    +x = optical axis projected onto the floor (pointing from the camera
+    towards the user), +y = z × x (the camera's left).  The user walks
+    towards -x (they follow the walker).  See :meth:`FloorPlane.walker_transform`.
+
+Indexing
+--------
+Leg points are stored as arrays shaped ``(2, 5, 3)`` indexed
+``[side, point, xyz]`` with ``side`` in :class:`Side` order (LEFT=0, RIGHT=1)
+and ``point`` in :data:`LEG_POINTS` order.  Sides are *anatomical* sides of
+the user.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from enum import IntEnum
+
+import numpy as np
+from numpy.typing import NDArray
+
+FloatArray = NDArray[np.float64]
+
+LEG_POINTS: tuple[str, ...] = ("hip", "knee", "ankle", "heel", "toe")
+"""Order of the tracked/ground-truth points of one leg."""
+
+HIP, KNEE, ANKLE, HEEL, TOE = range(5)
+
+SEGMENTS: tuple[str, ...] = ("thigh", "calf", "foot")
+"""Order of the model segments of one leg."""
+
+JOINT_NAMES: tuple[str, ...] = (
+    "left_hip_flexion",
+    "left_hip_abduction",
+    "left_hip_rotation",
+    "left_knee_flexion",
+    "left_ankle_flexion",
+    "left_ankle_inversion",
+    "right_hip_flexion",
+    "right_hip_abduction",
+    "right_hip_rotation",
+    "right_knee_flexion",
+    "right_ankle_flexion",
+    "right_ankle_inversion",
+)
+"""``sensor_msgs/JointState`` names (radians), in publication order.
+
+Sign conventions (anatomical): hip flexion positive when the thigh swings
+forward (towards the walker); hip abduction positive when the thigh moves away
+from the body midline; hip rotation positive for internal rotation; knee
+flexion positive (0 = straight leg); ankle flexion positive for dorsiflexion
+(toes up); ankle inversion positive when the sole turns towards the midline.
+"""
+
+
+class Side(IntEnum):
+    """Anatomical side of the user; values match ``walker_gait_msgs`` constants."""
+
+    LEFT = 0
+    RIGHT = 1
+
+    @property
+    def label(self) -> str:
+        return self.name.lower()
+
+
+class EventKind(IntEnum):
+    """Gait event kind; values match ``walker_gait_msgs/GaitEvent`` constants."""
+
+    HEEL_STRIKE = 0
+    TOE_OFF = 1
+
+    @property
+    def label(self) -> str:
+        return self.name.lower()
+
+
+class TrackStatus(IntEnum):
+    """Tracker status; values match ``walker_gait_msgs/LegTrack`` constants."""
+
+    NO_USER = 0  # nothing leg-like in the region of interest
+    SEARCHING = 1  # (re-)initialising from the foreground
+    TRACKING = 2  # converged, following the legs
+    DEGRADED = 3  # tracking, but with low confidence (occlusion, missing depth)
+
+
+@dataclass(frozen=True, kw_only=True)
+class CameraIntrinsics:
+    """Pinhole intrinsics of a (rectified or undistorted) depth image."""
+
+    width: int
+    height: int
+    fx: float
+    fy: float
+    cx: float
+    cy: float
+
+    def __post_init__(self) -> None:
+        if self.width <= 0 or self.height <= 0:
+            msg = f"image size must be positive, got {self.width}x{self.height}"
+            raise ValueError(msg)
+        if not (np.isfinite(self.fx) and np.isfinite(self.fy)) or self.fx <= 0 or self.fy <= 0:
+            msg = f"focal lengths must be positive and finite, got fx={self.fx}, fy={self.fy}"
+            raise ValueError(msg)
+
+    def project(self, points: FloatArray) -> FloatArray:
+        """Project ``(..., 3)`` camera-frame points to ``(..., 2)`` pixel coordinates (u, v).
+
+        Points with z <= 0 give non-finite pixel coordinates.
+        """
+        pts = np.asarray(points, dtype=np.float64)
+        z = pts[..., 2]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            u = self.fx * pts[..., 0] / z + self.cx
+            v = self.fy * pts[..., 1] / z + self.cy
+        bad = ~(z > 0)
+        u = np.where(bad, np.nan, u)
+        v = np.where(bad, np.nan, v)
+        return np.stack([u, v], axis=-1)
+
+    def backproject(self, u: FloatArray, v: FloatArray, depth: FloatArray) -> FloatArray:
+        """Back-project pixel coordinates with metric depth to ``(..., 3)`` camera points (eq. 2)."""
+        z = np.asarray(depth, dtype=np.float64)
+        x = (np.asarray(u, dtype=np.float64) - self.cx) * z / self.fx
+        y = (np.asarray(v, dtype=np.float64) - self.cy) * z / self.fy
+        return np.stack([x, y, z], axis=-1)
+
+    def scaled(self, factor: float) -> CameraIntrinsics:
+        """Intrinsics of the image resized by ``factor`` (e.g. 0.25 for a 160x120 cue image)."""
+        return CameraIntrinsics(
+            width=max(1, round(self.width * factor)),
+            height=max(1, round(self.height * factor)),
+            fx=self.fx * factor,
+            fy=self.fy * factor,
+            cx=(self.cx + 0.5) * factor - 0.5,
+            cy=(self.cy + 0.5) * factor - 0.5,
+        )
+
+
+@dataclass(frozen=True, kw_only=True)
+class FloorPlane:
+    """Floor plane in the camera optical frame: ``normal · p + offset = 0``.
+
+    ``normal`` is a unit vector pointing *up* (away from the floor, towards the
+    camera side), so :meth:`height` is positive above the floor and
+    ``offset`` equals the camera's height above the floor.
+    """
+
+    normal: FloatArray
+    offset: float
+    rms: float = 0.0  # RMS point-to-plane residual of the inliers (m)
+    inlier_ratio: float = 0.0  # inliers / candidate floor points (0..1)
+    valid: bool = True
+
+    def height(self, points: FloatArray) -> FloatArray:
+        """Signed height (m) of ``(..., 3)`` camera-frame points above the floor."""
+        return np.asarray(points, dtype=np.float64) @ self.normal + self.offset
+
+    def walker_transform(self) -> tuple[FloatArray, FloatArray]:
+        """Rotation ``R`` (3x3) and translation ``t`` with ``p_walker = R @ p_camera + t``."""
+        n = np.asarray(self.normal, dtype=np.float64)
+        n = n / np.linalg.norm(n)
+        optical = np.array([0.0, 0.0, 1.0])
+        x_axis = optical - (optical @ n) * n
+        norm = np.linalg.norm(x_axis)
+        if norm < 1e-6:  # camera looking straight down: fall back to image "down" direction
+            down = np.array([0.0, 1.0, 0.0])
+            x_axis = down - (down @ n) * n
+            norm = np.linalg.norm(x_axis)
+        x_axis = x_axis / norm
+        y_axis = np.cross(n, x_axis)
+        rot = np.stack([x_axis, y_axis, n])
+        # camera centre (origin) is at height `offset`; its floor projection is the walker origin
+        t = np.array([0.0, 0.0, self.offset])
+        return rot, t
+
+    def to_walker(self, points: FloatArray) -> FloatArray:
+        """Transform ``(..., 3)`` camera-frame points into the walker frame."""
+        rot, t = self.walker_transform()
+        return np.asarray(points, dtype=np.float64) @ rot.T + t
+
+    @staticmethod
+    def from_camera_pose(*, height: float, pitch: float) -> FloorPlane:
+        """Floor seen by a camera ``height`` m above it, pitched down by ``pitch`` rad (no roll)."""
+        # In the optical frame "up" is -y; pitching the camera down by `pitch` rotates it about +x.
+        normal = np.array([0.0, -np.cos(pitch), -np.sin(pitch)])
+        return FloorPlane(normal=normal, offset=float(height), rms=0.0, inlier_ratio=1.0)
+
+
+@dataclass(kw_only=True)
+class LegPose:
+    """Pose of both legs in one frame (tracker output or ground truth)."""
+
+    stamp: float  # seconds, image header clock
+    points: FloatArray  # (2, 5, 3) [side, LEG_POINTS, xyz] camera optical frame, metres
+    angles: FloatArray = field(default_factory=lambda: np.full(len(JOINT_NAMES), np.nan))  # JOINT_NAMES order, rad
+    segments: FloatArray | None = None  # (2, 3, 2, 3) [side, SEGMENTS, proximal/distal, xyz]
+    radii: FloatArray | None = None  # (2, 3, 2) [side, SEGMENTS, proximal/distal] metres
+    visibility: FloatArray | None = None  # (2, 3) [side, SEGMENTS] fraction visible 0..1
+    status: TrackStatus = TrackStatus.TRACKING
+    confidence: float = 1.0  # 0..1
+    ess: float = float("nan")  # effective sample size of the particle set
+
+
+@dataclass(frozen=True, kw_only=True)
+class GaitEvent:
+    """A heel strike or toe off."""
+
+    stamp: float  # seconds (sub-frame interpolated), image header clock
+    side: Side
+    kind: EventKind
+    position: FloatArray  # (3,) heel (HS) or toe (TO) position, camera optical frame, metres
+    confidence: float = 1.0
+
+
+@dataclass(frozen=True, kw_only=True)
+class Step:
+    """One step, ending at the heel strike of ``side`` (GAITRite definitions, see README)."""
+
+    stamp: float  # heel-strike time (s)
+    side: Side
+    index: int  # 0-based step number in the session
+    step_length: float  # m
+    step_width: float  # m
+    step_time: float  # s
+    stride_length: float  # m, NaN when the previous same-side footfall is unknown
+    stride_time: float  # s, NaN likewise
+    stance_time: float  # s, of the previous gait cycle of this foot, NaN when unknown
+    swing_time: float  # s
+    single_support_time: float  # s
+    double_support_time: float  # s
+    confidence: float = 1.0

@@ -1,0 +1,194 @@
+"""Shared plumbing of the walker_gait rclpy nodes (the only package that imports rclpy).
+
+* Messages travel as CDR bytes built/parsed by :mod:`walker_gait.messages` (``raw=True``
+  subscriptions, publishers given ``bytes``), so nodes and the offline pipeline share one
+  conversion layer.
+* Parameters are declared from the core config dataclasses (:mod:`walker_gait.config`).
+* Every callback is guarded: a bad frame is logged once per kind of problem, counted on
+  ``/diagnostics`` and skipped; the node keeps running.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import importlib
+import signal
+import sys
+import time
+from collections import Counter
+from collections.abc import Callable
+from typing import Any
+
+import rclpy
+from rclpy.executors import ExternalShutdownException
+from rclpy.node import Node
+from rclpy.parameter import Parameter
+from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+
+from walker_gait import messages as M
+from walker_gait.config import ParameterError, build, flatten
+
+# ---------------------------------------------------------------------------------------------- QoS
+#: Camera input: best effort, keep last 5 — matches both best-effort drivers and reliable bag players.
+SENSOR_IN = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=5, reliability=ReliabilityPolicy.BEST_EFFORT,
+                       durability=DurabilityPolicy.VOLATILE)
+#: Per-frame streams between our nodes and to visualisers: reliable, keep last 5.
+STREAM = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=5, reliability=ReliabilityPolicy.RELIABLE,
+                    durability=DurabilityPolicy.VOLATILE)
+#: Per-frame stream subscriptions: best effort, so any publisher matches and a slow node drops, not queues.
+STREAM_IN = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=5, reliability=ReliabilityPolicy.BEST_EFFORT,
+                       durability=DurabilityPolicy.VOLATILE)
+#: Discrete gait events and steps: reliable, keep last 100 — none lost to a briefly slow subscriber.
+EVENTS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=100, reliability=ReliabilityPolicy.RELIABLE,
+                    durability=DurabilityPolicy.VOLATILE)
+#: Gait summaries: reliable, transient local, keep last 1 — late-joining dashboards get the latest.
+LATCHED = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1, reliability=ReliabilityPolicy.RELIABLE,
+                     durability=DurabilityPolicy.TRANSIENT_LOCAL)
+#: /diagnostics.
+DIAGNOSTICS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=10, reliability=ReliabilityPolicy.RELIABLE,
+                         durability=DurabilityPolicy.VOLATILE)
+
+
+def rclpy_type(typename: str) -> Any:
+    """rclpy message class for ``pkg/msg/Name``."""
+    pkg, _, name = typename.split("/")
+    return getattr(importlib.import_module(f"{pkg}.msg"), name)
+
+
+class WalkerNode(Node):
+    """Base class: guarded raw pub/sub, config-declared parameters, diagnostics."""
+
+    def __init__(self, name: str, **kwargs: Any) -> None:
+        super().__init__(name, **kwargs)
+        self._problems: Counter[str] = Counter()
+        self._logged: set[str] = set()
+        self.frames_ok = 0
+        self._diag_pub = self.create_publisher(rclpy_type(M.DIAGNOSTIC_ARRAY), "/diagnostics", DIAGNOSTICS)
+        self._diag_timer = self.create_timer(1.0, self._publish_diagnostics)
+
+    # -- parameters --------------------------------------------------------------------------------
+    def declare_config(self, cls: type, *, prefix: str = "", base: Any | None = None) -> Any:
+        """Declare every field of config dataclass ``cls`` as a parameter and build it from their values."""
+        defaults = flatten(base if base is not None else cls())
+        values: dict[str, Any] = {}
+        for key, default in defaults.items():
+            name = prefix + key
+            if default is None:
+                param = self.declare_parameter(name, Parameter.Type.STRING)
+                value = param.value
+                values[key] = None if value in (None, "", "none", "None") else value
+            else:
+                if isinstance(default, list) and not default:
+                    default = [""]  # rclpy cannot infer the type of an empty list
+                values[key] = self.declare_parameter(name, default).value
+        try:
+            return build(cls, values, base=base)
+        except ParameterError as exc:
+            self.get_logger().fatal(str(exc))
+            raise
+
+    # -- pub/sub -----------------------------------------------------------------------------------
+    def raw_publisher(self, typename: str, topic: str, qos: QoSProfile) -> Callable[[Any], None]:
+        pub = self.create_publisher(rclpy_type(typename), topic, qos)
+
+        def publish(msg: Any) -> None:
+            pub.publish(M.serialize(msg))
+
+        publish.publisher = pub  # type: ignore[attr-defined]
+        return publish
+
+    def raw_subscription(self, typename: str, topic: str, callback: Callable[[Any], None], qos: QoSProfile) -> Any:
+        def on_bytes(data: bytes) -> None:
+            with self.guard(topic):
+                callback(M.deserialize(data, typename))
+
+        return self.create_subscription(rclpy_type(typename), topic, on_bytes, qos, raw=True)
+
+    # -- errors and diagnostics --------------------------------------------------------------------
+    def guard(self, where: str) -> _Guard:
+        return _Guard(self, where)
+
+    def report_problem(self, kind: str, detail: str) -> None:
+        """Count a skipped frame; log the first occurrence of each kind (then once per 1000)."""
+        self._problems[kind] += 1
+        n = self._problems[kind]
+        if kind not in self._logged or n % 1000 == 0:
+            self._logged.add(kind)
+            self.get_logger().error(f"{detail} (frame skipped; {kind} seen {n}x; counted on /diagnostics)")
+
+    def _publish_diagnostics(self) -> None:
+        level = 0 if not self._problems else 1
+        message = "ok" if not self._problems else f"{sum(self._problems.values())} frame(s) skipped"
+        values: dict[str, Any] = {"frames_ok": self.frames_ok}
+        values.update({f"skipped.{k}": v for k, v in sorted(self._problems.items())})
+        now = self.get_clock().now().nanoseconds
+        msg = M.make_diagnostics(M.make_header(M.make_time(now, ns=True), ""), name=f"walker_gait: {self.get_name()}",
+                                 hardware_id=self.get_fully_qualified_name(), level=level, message=message,
+                                 values=values)
+        self._diag_pub.publish(M.serialize(msg))
+
+    @property
+    def problems(self) -> dict[str, int]:
+        return dict(self._problems)
+
+
+class _Guard:
+    def __init__(self, node: WalkerNode, where: str) -> None:
+        self.node = node
+        self.where = where
+
+    def __enter__(self) -> _Guard:
+        return self
+
+    def __exit__(self, exc_type: Any, exc: BaseException | None, tb: Any) -> bool:
+        if exc is None or not isinstance(exc, Exception):
+            return False  # KeyboardInterrupt / SystemExit / shutdown propagate
+        kind = getattr(exc, "kind", None) or type(exc).__name__
+        self.node.report_problem(str(kind), f"{self.where}: {type(exc).__name__}: {exc}")
+        return True
+
+
+def spin_node(factory: Callable[[], WalkerNode], args: list[str] | None = None) -> int:
+    """Init rclpy, build the node, spin until Ctrl-C / SIGTERM, shut down cleanly; exit code 0."""
+    argv = sys.argv if args is None else args
+    rclpy.init(args=argv)
+    node: WalkerNode | None = None
+    code = 0
+    try:
+        node = factory()
+        rclpy.spin(node)
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    except ParameterError:
+        code = 2
+    finally:
+        if node is not None:
+            close = getattr(node, "close", None)
+            if close is not None:
+                try:
+                    close()
+                except Exception as exc:  # noqa: BLE001 - a failing close must not hide the exit
+                    print(f"{node.get_name()}: error while closing: {exc}", file=sys.stderr)
+            node.destroy_node()
+        if rclpy.ok():
+            rclpy.shutdown()
+    return code
+
+
+def install_sigterm_as_interrupt() -> None:
+    """Treat SIGTERM like Ctrl-C (for processes started by ``walker-gait run``)."""
+
+    def handler(signum: int, frame: Any) -> None:
+        raise KeyboardInterrupt
+
+    signal.signal(signal.SIGTERM, handler)
+
+
+def now_monotonic() -> float:
+    return time.monotonic()
+
+
+__all__ = [
+    "DIAGNOSTICS", "EVENTS", "LATCHED", "SENSOR_IN", "STREAM", "STREAM_IN", "WalkerNode", "dataclasses",
+    "rclpy_type", "spin_node",
+]

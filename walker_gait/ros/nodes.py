@@ -1,0 +1,336 @@
+"""The five walker_gait nodes: thin rclpy wrappers around the algorithm core.
+
+=====================  =====================================================================
+node                   what it does
+=====================  =====================================================================
+depth_to_cloud         depth Image + CameraInfo → organised PointCloud2 (camera optical frame)
+floor_segmentation     organised cloud → foreground cloud + mask + FloorPlane
+leg_tracker            foreground + floor + CameraInfo → JointState, LegTrack, MarkerArray
+gait_analyzer          LegTrack + floor (+ Odometry) → GaitEvent, Step, GaitSummary
+bag_replay             recording (MCAP / rosbag2 / ROS 1) → its topics + /clock
+=====================  =====================================================================
+
+Topics, types, QoS and parameters are tabulated in the README.
+"""
+
+from __future__ import annotations
+
+import time
+from collections import OrderedDict
+from typing import Any
+
+import numpy as np
+
+from walker_gait import messages as M
+from walker_gait.ros.base import (
+    EVENTS,
+    LATCHED,
+    SENSOR_IN,
+    STREAM,
+    STREAM_IN,
+    WalkerNode,
+    install_sigterm_as_interrupt,
+    spin_node,
+)
+
+
+class MissingCameraInfo(RuntimeError):
+    kind = "no_camera_info"
+
+
+# ------------------------------------------------------------------------------- depth_to_cloud
+
+
+class DepthToCloudNode(WalkerNode):
+    """``depth/image_raw`` + ``depth/camera_info`` → ``points`` (organised, NaN = no depth)."""
+
+    def __init__(self, **kwargs: Any) -> None:
+        super().__init__("depth_to_cloud", **kwargs)
+        from walker_gait.core.depth import DepthProjector
+
+        self.depth_format = str(self.declare_parameter("depth_format", "auto").value)
+        self.use_rectified = bool(self.declare_parameter("use_rectified", True).value)
+        self.projector = DepthProjector()
+        self.undistorter: Any = None
+        self.info_key: tuple[Any, ...] | None = None
+        self.pub_points = self.raw_publisher(M.POINT_CLOUD2, "points", STREAM)
+        self.raw_subscription(M.CAMERA_INFO, "depth/camera_info", self.on_info, SENSOR_IN)
+        self.raw_subscription(M.IMAGE, "depth/image_raw", self.on_image, SENSOR_IN)
+        self.info: Any = None
+        self._warned_no_info = 0.0
+
+    def on_info(self, msg: Any) -> None:
+        from walker_gait.core.depth import intrinsics_from_camera_info
+
+        fields = M.intrinsics_fields(msg)
+        key = (fields["width"], fields["height"], tuple(fields["k"]), tuple(fields["d"]), tuple(fields["p"]),
+               fields["distortion_model"])
+        if key == self.info_key:
+            return
+        intr, undist = intrinsics_from_camera_info(**fields, rectified=self.use_rectified)
+        self.projector.set_intrinsics(intr)
+        self.undistorter = undist
+        self.info_key = key
+        self.info = intr
+
+    def on_image(self, msg: Any) -> None:
+        from walker_gait.core.depth import check_info_matches, decode_depth
+
+        if self.info is None:
+            now = time.monotonic()
+            if now - self._warned_no_info > 5.0:
+                self._warned_no_info = now
+                self.get_logger().warning("depth image received but no CameraInfo yet on depth/camera_info; "
+                                          "skipping frames until one arrives")
+            return
+        check_info_matches(self.info, width=msg.width, height=msg.height)
+        depth = decode_depth(msg.data, encoding=msg.encoding, width=msg.width, height=msg.height, step=msg.step,
+                             is_bigendian=bool(msg.is_bigendian), depth_format=self.depth_format)
+        if self.undistorter is not None:
+            depth = self.undistorter.apply(depth)
+        points = self.projector.points(depth)
+        self.pub_points(M.make_pointcloud2(points, msg.header))
+        self.frames_ok += 1
+
+
+# --------------------------------------------------------------------------- floor_segmentation
+
+
+class FloorSegmentationNode(WalkerNode):
+    """``points`` (organised) → ``foreground/points``, ``foreground/mask``, ``floor_plane``."""
+
+    def __init__(self, **kwargs: Any) -> None:
+        super().__init__("floor_segmentation", **kwargs)
+        from walker_gait.core.segmentation import Segmenter, SegmenterConfig
+
+        config = self.declare_config(SegmenterConfig)
+        seed = int(self.declare_parameter("seed", 0).value)
+        self.segmenter = Segmenter(config, rng=np.random.default_rng(seed))
+        self.pub_fg = self.raw_publisher(M.POINT_CLOUD2, "foreground/points", STREAM)
+        self.pub_mask = self.raw_publisher(M.IMAGE, "foreground/mask", STREAM)
+        self.pub_floor = self.raw_publisher(M.FLOOR_PLANE, "floor_plane", STREAM)
+        self.raw_subscription(M.POINT_CLOUD2, "points", self.on_cloud, STREAM_IN)
+
+    def on_cloud(self, msg: Any) -> None:
+        points = M.read_pointcloud2(msg)
+        if points.ndim != 3:
+            raise ValueError("floor_segmentation needs an organised cloud (height > 1) aligned with the depth image")
+        seg = self.segmenter.process(points[..., 2], points)
+        self.pub_floor(M.make_floor_plane(seg.floor, msg.header))
+        self.pub_mask(M.make_image(seg.mask.astype(np.uint8) * 255, msg.header, encoding="mono8"))
+        self.pub_fg(M.make_pointcloud2(seg.points, msg.header))
+        self.frames_ok += 1
+
+
+# ---------------------------------------------------------------------------------- leg_tracker
+
+
+class StampSync:
+    """Exact-time synchroniser for a few topics published with one header (no message_filters on PyPI)."""
+
+    def __init__(self, names: tuple[str, ...], *, keep: int = 10) -> None:
+        self.names = names
+        self.keep = keep
+        self.pending: OrderedDict[tuple[int, str], dict[str, Any]] = OrderedDict()
+
+    def add(self, name: str, msg: Any) -> dict[str, Any] | None:
+        key = (M.stamp_to_ns(msg.header.stamp), msg.header.frame_id)
+        slot = self.pending.setdefault(key, {})
+        slot[name] = msg
+        if len(slot) == len(self.names):
+            # complete: drop it and everything older
+            while self.pending:
+                k, v = self.pending.popitem(last=False)
+                if k == key:
+                    return v
+            return slot
+        while len(self.pending) > self.keep:
+            self.pending.popitem(last=False)
+        return None
+
+
+class LegTrackerNode(WalkerNode):
+    """Foreground + floor → ``joint_states``, ``leg_track``, ``leg_markers``."""
+
+    def __init__(self, **kwargs: Any) -> None:
+        super().__init__("leg_tracker", **kwargs)
+        from walker_gait.core import tracker as T
+
+        preset = str(self.declare_parameter("preset", "default").value)
+        base = T.preset(preset)
+        self.config = self.declare_config(type(base), base=base, prefix="")
+        self.use_rectified = bool(self.declare_parameter("use_rectified", True).value)
+        self.mounting = str(self.declare_parameter("mounting", "facing_user").value)
+        self.seed = int(self.declare_parameter("seed", 0).value)
+        self.tracker: Any = None
+        self.intrinsics: Any = None
+        self.sync = StampSync(("points", "mask", "floor"))
+        self.pub_joints = self.raw_publisher(M.JOINT_STATE, "joint_states", STREAM)
+        self.pub_track = self.raw_publisher(M.LEG_TRACK, "leg_track", STREAM)
+        self.pub_markers = self.raw_publisher(M.MARKER_ARRAY, "leg_markers", STREAM)
+        self.raw_subscription(M.CAMERA_INFO, "depth/camera_info", self.on_info, SENSOR_IN)
+        self.raw_subscription(M.POINT_CLOUD2, "foreground/points", lambda m: self.on_part("points", m), STREAM_IN)
+        self.raw_subscription(M.IMAGE, "foreground/mask", lambda m: self.on_part("mask", m), STREAM_IN)
+        self.raw_subscription(M.FLOOR_PLANE, "floor_plane", lambda m: self.on_part("floor", m), STREAM_IN)
+        self.latencies: list[float] = []
+
+    def on_info(self, msg: Any) -> None:
+        from walker_gait.core.depth import intrinsics_from_camera_info
+        from walker_gait.core.tracker import LegTracker
+
+        intr, _ = intrinsics_from_camera_info(**M.intrinsics_fields(msg), rectified=self.use_rectified)
+        if intr == self.intrinsics:
+            return
+        self.intrinsics = intr
+        self.tracker = LegTracker(self.config, intr, rng=np.random.default_rng(self.seed), mounting=self.mounting)
+
+    def on_part(self, name: str, msg: Any) -> None:
+        complete = self.sync.add(name, msg)
+        if complete is None:
+            return
+        if self.tracker is None:
+            raise MissingCameraInfo("no CameraInfo received on depth/camera_info yet")
+        with self.guard("leg_tracker"):
+            self.track(complete)
+
+    def track(self, parts: dict[str, Any]) -> None:
+        header = parts["points"].header
+        mask = M.image_to_mask(parts["mask"])
+        points = M.read_pointcloud2(parts["points"])
+        if points.ndim == 3:
+            points = points.reshape(-1, 3)
+        depth_fg = np.full(mask.shape, np.nan, dtype=np.float32)
+        if len(points) == int(mask.sum()):
+            depth_fg[mask] = points[:, 2]
+        floor = M.floor_from_msg(parts["floor"])
+        pose = self.tracker.update(stamp=M.stamp_to_s(header.stamp), points=points, depth_fg=depth_fg, floor=floor)
+        self.pub_joints(M.make_joint_state(pose, header))
+        self.pub_track(M.make_leg_track(pose, header, particle_count=int(getattr(self.config, "num_particles", 0))))
+        self.pub_markers(M.make_markers(pose, header))
+        self.frames_ok += 1
+
+
+# -------------------------------------------------------------------------------- gait_analyzer
+
+
+class GaitAnalyzerNode(WalkerNode):
+    """``leg_track`` + ``floor_plane`` (+ ``odom``) → ``gait_events``, ``steps``, ``gait_summary``."""
+
+    def __init__(self, **kwargs: Any) -> None:
+        super().__init__("gait_analyzer", **kwargs)
+        from walker_gait.core.gait import GaitAnalyzer, GaitConfig
+
+        self.config = self.declare_config(GaitConfig)
+        self.window_s = float(self.declare_parameter("summary_window", 10.0).value)
+        use_odom = bool(self.declare_parameter("use_odometry", False).value)
+        self.analyzer = GaitAnalyzer(self.config)
+        self.floor: Any = None
+        self.frame_id = ""
+        self.pub_event = self.raw_publisher(M.GAIT_EVENT, "gait_events", EVENTS)
+        self.pub_step = self.raw_publisher(M.STEP, "steps", EVENTS)
+        self.pub_summary = self.raw_publisher(M.GAIT_SUMMARY, "gait_summary", LATCHED)
+        self.pub_window = self.raw_publisher(M.GAIT_SUMMARY, "gait_summary/rolling", LATCHED)
+        self.raw_subscription(M.FLOOR_PLANE, "floor_plane", self.on_floor, STREAM_IN)
+        self.raw_subscription(M.LEG_TRACK, "leg_track", self.on_track, STREAM_IN)
+        if use_odom:
+            self.raw_subscription(M.ODOMETRY, "odom", self.on_odom, STREAM_IN)
+
+    def on_floor(self, msg: Any) -> None:
+        self.floor = M.floor_from_msg(msg)
+
+    def on_odom(self, msg: Any) -> None:
+        q = msg.pose.pose.orientation
+        yaw = float(np.arctan2(2 * (q.w * q.z + q.x * q.y), 1 - 2 * (q.y * q.y + q.z * q.z)))
+        self.analyzer.update_odometry(M.stamp_to_s(msg.header.stamp), float(msg.pose.pose.position.x),
+                                      float(msg.pose.pose.position.y), yaw)
+
+    def on_track(self, msg: Any) -> None:
+        if self.floor is None:
+            return  # the floor_plane of this frame normally arrives first; nothing to analyse without one
+        self.frame_id = msg.header.frame_id
+        pose = M.leg_pose_from_track(msg)
+        events, steps = self.analyzer.update(pose, self.floor)
+        self.publish_results(events, steps, msg.header)
+        self.frames_ok += 1
+
+    def publish_results(self, events: list[Any], steps: list[Any], header: Any) -> None:
+        for ev in events:
+            self.pub_event(M.make_gait_event(ev, header.frame_id))
+        for st in steps:
+            self.pub_step(M.make_step(st, header.frame_id))
+        if steps:
+            self.pub_summary(M.make_gait_summary(self.analyzer.summary(window_s=None).to_msg_dict(), header))
+            self.pub_window(M.make_gait_summary(self.analyzer.summary(window_s=self.window_s).to_msg_dict(), header))
+
+    def close(self) -> None:
+        events, steps = self.analyzer.finish()
+        if events or steps:
+            self.publish_results(events, steps, M.make_header(0.0, self.frame_id))
+
+
+# ----------------------------------------------------------------------------------- bag_replay
+
+
+class BagReplayNode(WalkerNode):
+    """Publishes a recording's topics (CDR bytes as recorded; ROS 1 converted) and ``/clock``."""
+
+    def __init__(self, **kwargs: Any) -> None:
+        super().__init__("bag_replay", **kwargs)
+        self.input = str(self.declare_parameter("input", "").value)
+        self.rate = float(self.declare_parameter("rate", 1.0).value)
+        self.loop = bool(self.declare_parameter("loop", False).value)
+        self.publish_clock = bool(self.declare_parameter("publish_clock", True).value)
+        self.start_delay = float(self.declare_parameter("start_delay", 1.0).value)
+        self.done = False
+        if not self.input:
+            self.get_logger().info("no 'input' parameter: idle (start with -p input:=FILE, or use walker-gait replay)")
+            return
+        if self.rate <= 0:
+            raise ValueError(f"rate must be > 0, got {self.rate}")
+        from walker_gait.ros.replay import Replayer
+
+        self.replayer = Replayer(self, self.input, rate=self.rate, loop=self.loop, publish_clock=self.publish_clock,
+                                 start_delay=self.start_delay)
+        self.replayer.start()
+
+    def close(self) -> None:
+        replayer = getattr(self, "replayer", None)
+        if replayer is not None:
+            replayer.stop()
+
+
+# ------------------------------------------------------------------------------- entry points
+
+
+def _main(cls: type[WalkerNode]) -> int:
+    install_sigterm_as_interrupt()
+    return spin_node(cls)
+
+
+def depth_to_cloud_main() -> int:
+    return _main(DepthToCloudNode)
+
+
+def floor_segmentation_main() -> int:
+    return _main(FloorSegmentationNode)
+
+
+def leg_tracker_main() -> int:
+    return _main(LegTrackerNode)
+
+
+def gait_analyzer_main() -> int:
+    return _main(GaitAnalyzerNode)
+
+
+def bag_replay_main() -> int:
+    return _main(BagReplayNode)
+
+
+NODES: dict[str, type[WalkerNode]] = {
+    "depth_to_cloud": DepthToCloudNode,
+    "floor_segmentation": FloorSegmentationNode,
+    "leg_tracker": LegTrackerNode,
+    "gait_analyzer": GaitAnalyzerNode,
+    "bag_replay": BagReplayNode,
+}
