@@ -64,17 +64,31 @@ def describe(cls: type, prefix: str = "") -> Iterator[tuple[str, Any, str]]:
 
 
 def _attribute_doc(cls: type, name: str) -> str:
-    """The trailing ``# comment`` of a dataclass field in its source, if any."""
+    """The field's trailing ``# comment`` or attribute docstring in the dataclass source, if any."""
     import inspect
 
     try:
-        src = inspect.getsource(cls)
+        lines = inspect.getsource(cls).splitlines()
     except (OSError, TypeError):
         return ""
-    for line in src.splitlines():
+    quote = '"' * 3
+    for i, line in enumerate(lines):
         stripped = line.strip()
-        if stripped.startswith(f"{name}:") and "#" in stripped:
+        if not stripped.startswith(f"{name}:"):
+            continue
+        if "#" in stripped:
             return stripped.split("#", 1)[1].strip()
+        nxt = lines[i + 1].strip() if i + 1 < len(lines) else ""
+        if not nxt.startswith(quote):
+            return ""
+        parts: list[str] = []
+        body, j = nxt[3:], i + 1
+        while quote not in body and j + 1 < len(lines):
+            parts.append(body)
+            j += 1
+            body = lines[j].strip()
+        parts.append(body.split(quote, 1)[0])
+        return " ".join(p.strip() for p in parts if p.strip())
     return ""
 
 

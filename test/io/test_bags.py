@@ -45,8 +45,6 @@ from walker_gait.io.camera_yaml import CameraInfoData, dump_camera_info_yaml, lo
 TS2 = get_typestore(Stores.ROS2_JAZZY)
 TS1 = get_typestore(Stores.ROS1_NOETIC)
 
-REPO = Path(__file__).resolve().parents[2]
-REAL_BAG = REPO.parent / "shared" / "data" / "real" / "xtion_person_32fc1.bag"
 
 W, H = 8, 6
 N_FRAMES = 5
@@ -839,11 +837,9 @@ def test_bad_inputs_raise_recording_error_naming_the_file(tmp_path: Path, case: 
 # ------------------------------------------------------------------------------------------------
 
 
-def test_real_ros1_bag() -> None:
-    assert REAL_BAG.is_file(), (
-        f"real test data missing: {REAL_BAG} (expected shared/data/real/ beside the repository checkout)"
-    )
-    rec = quiet_open(REAL_BAG)
+def test_real_ros1_bag(real_bag: Path) -> None:
+    # real_bag (test/conftest.py): <repo>/../shared/data/real/xtion_person_32fc1.bag, pytest.fail if missing
+    rec = quiet_open(real_bag)
     assert rec.storage == "ros1"
     assert rec.depth_topic == "/hero/head_rgbd_sensor/depth_registered/image"
     assert rec.info_topic == "/hero/head_rgbd_sensor/rgb/camera_info"
@@ -863,3 +859,17 @@ def test_real_ros1_bag() -> None:
     for r in raw:  # ROS 1 -> CDR, readable as Jazzy messages
         msg = TS2.deserialize_cdr(r.data, r.msgtype)
         assert msg.header.frame_id == "head_rgbd_sensor_rgb_frame"
+
+
+def test_db3_without_embedded_definitions_uses_jazzy_types(tmp_path: Path) -> None:
+    import sqlite3
+
+    path = make_recording(tmp_path, "bare_db3", session())
+    con = sqlite3.connect(path)
+    con.execute("DELETE FROM message_definitions")  # like bags from recorders that store no definitions
+    con.commit()
+    con.close()
+    rec = quiet_open(path)
+    assert rec.depth_topic == DEPTH and rec.info_topic == INFO
+    frames = frames_of(rec)
+    assert len(frames) == N_FRAMES and frames[-1].camera_info is not None and frames[-1].camera_info.fx == 600.0

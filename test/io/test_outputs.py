@@ -494,6 +494,14 @@ def test_summary_to_json_missing_extra_idempotent_and_errors() -> None:
     with pytest.raises(ValueError, match="2 values"):
         summary_to_json({"step_length_mean_side": [0.4]})
 
+    class FakeSummaryData:  # stands in for core.gait.GaitSummaryData
+        def to_dict(self) -> dict:
+            return _summary()
+
+    assert summary_to_json(FakeSummaryData()) == summary_to_json(_summary())  # type: ignore[arg-type]
+    with pytest.raises(TypeError):
+        summary_to_json([1, 2])  # type: ignore[arg-type]
+
 
 def test_write_summary_json_strict_json_metadata_and_round_trip(tmp_path: Path) -> None:
     path = tmp_path / "summary.json"

@@ -201,8 +201,8 @@ def run_segmentation_bench(
     cv_threads = cv2.getNumThreads()
     cv2.setNumThreads(1)
     try:
-        seg = Segmenter(cfg, rng=rng)
         intr = KINECT_INTRINSICS
+        seg = Segmenter(cfg, rng=rng, intrinsics=intr)
         proj = DepthProjector(intr)
         w, h = intr.width, intr.height
         roi = cfg.roi
@@ -214,7 +214,7 @@ def run_segmentation_bench(
         tot = {"leg": 0, "leg_kept": 0, "leg_all": 0, "leg_all_kept": 0, "floor_roi": 0, "floor_leak": 0,
                "floor_all": 0, "bar": 0, "bar_kept": 0, "post": 0, "post_kept": 0}
         ransac_ang = ransac_h = float("nan")
-        seg_mm = Segmenter(cfg, rng=np.random.default_rng(0))
+        seg_mm = Segmenter(cfg, rng=np.random.default_rng(0), intrinsics=intr)
         for i in range(n_frames):
             phase = 2 * math.pi * i / 30.0
             legs = ((0.85 + 0.2 * math.sin(phase), 0.09), (0.85 - 0.2 * math.sin(phase), -0.07))

@@ -235,7 +235,7 @@ class Undistorter:
     def apply(self, depth_m: F32) -> F32:
         """Undistort a ``(height, width)`` float32 depth image (metres, NaN invalid)."""
         if depth_m.shape != (self.height, self.width):
-            msg = f"depth image is {depth_m.shape[1]}x{depth_m.shape[0]}, undistortion maps are {self.width}x{self.height}"
+            msg = f"depth image shape {depth_m.shape} does not match the undistortion maps ({self.width}x{self.height})"
             raise CameraInfoError(msg)
         src = np.ascontiguousarray(depth_m, dtype=np.float32)
         return cv2.remap(

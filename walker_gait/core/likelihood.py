@@ -126,7 +126,9 @@ def log_likelihood_3d(
     ``ref_fg_costs``: ``(N,)`` surface costs of the foreground w.r.t. model parts that are
     held fixed (partitioned sampling: the other leg); combined by ``min`` into ``d_FM``.
     ``active``: ``(S,)`` segments that contribute to ``d_MF`` (hidden ones are left out).
-    ``cue_image``: needed when ``params.occlusion_aware`` (observed depth for the test).
+    ``cue_image``: needed when ``params.occlusion_aware`` (observed depth for the test); its
+    ``min_height`` also removes skeleton points whose surface lies entirely below the
+    segmentation's floor cut from ``d_MF``.
     """
     p, s = segments.shape[:2]
     n_fg = fg.shape[0]
@@ -153,6 +155,8 @@ def log_likelihood_3d(
     mask = np.ones((p, s * k), dtype=bool)
     if active is not None:
         mask &= np.repeat(np.asarray(active, dtype=bool), k)[None, :]
+    if cue_image is not None and cue_image.min_height > 0:
+        mask &= ~cue_image.below_cut(pts.reshape(p, s * k, 3), w.reshape(p, s * k))
     if params.occlusion_aware and cue_image is not None:
         occ = cue_image.occluded(pts.reshape(p, s * k, 3), w.reshape(p, s * k), tol=params.occlusion_tol)
         mf = np.where(occ, np.float32(params.occluded_cost), mf)
@@ -180,13 +184,23 @@ class CueImage:
     intrinsics: CameraIntrinsics
     ray_up: F32
     floor_offset: float
+    floor_normal: FloatArray
+    min_height: float  # m: the segmentation drops points lower than this above the floor
     fg_bbox: tuple[int, int, int, int] | None  # (v0, v1, u0, u1) half-open, None if empty
 
     @staticmethod
     def from_depth(
-        depth_fg: NDArray[np.floating], *, intrinsics: CameraIntrinsics, stride: int, floor: FloorPlane
+        depth_fg: NDArray[np.floating],
+        *,
+        intrinsics: CameraIntrinsics,
+        stride: int,
+        floor: FloorPlane,
+        min_height: float = 0.0,
     ) -> CueImage:
         """Sub-sample the full-resolution foreground depth (NaN = background) by ``stride``.
+
+        ``min_height`` (m): height above the floor under which the segmentation removed points;
+        model surface lower than that is treated as unobservable by both cues.
 
         Pixel centres are kept aligned with :meth:`CameraIntrinsics.scaled` (``1/stride``).
         """
@@ -210,7 +224,20 @@ class CueImage:
         rows = np.flatnonzero(depth.any(axis=1))
         cols = np.flatnonzero(depth.any(axis=0))
         bbox = None if rows.size == 0 else (int(rows[0]), int(rows[-1]) + 1, int(cols[0]), int(cols[-1]) + 1)
-        return CueImage(depth=depth, intrinsics=intr, ray_up=ray_up, floor_offset=float(floor.offset), fg_bbox=bbox)
+        return CueImage(
+            depth=depth,
+            intrinsics=intr,
+            ray_up=ray_up,
+            floor_offset=float(floor.offset),
+            floor_normal=nrm / np.linalg.norm(nrm),
+            min_height=float(min_height),
+            fg_bbox=bbox,
+        )
+
+    def below_cut(self, pts: FloatArray, widths: FloatArray, *, margin: float = 0.01) -> BoolArray:
+        """True where a skeleton point's surface cannot reach above ``min_height + margin``."""
+        h = pts @ self.floor_normal + self.floor_offset
+        return h + widths < self.min_height + margin
 
     def occluded(self, pts: FloatArray, widths: FloatArray, *, tol: float) -> BoolArray:
         """``(...)`` True where camera-frame skeleton points are out of the image or hidden.
@@ -342,7 +369,7 @@ def render_depth(
         np.subtract(z, d2, out=z)  # front-surface depth
         if floor_clip is not None and floor_clip[j]:
             up = cue.ray_up[sv0:sv1, su0:su1]
-            inside &= z * up[None] + np.float32(cue.floor_offset) >= -0.005
+            inside &= z * up[None] + np.float32(cue.floor_offset) >= np.float32(max(cue.min_height, 0.0) - 0.005)
         z[~inside] = np.inf
         view = out[:, sv0 - v0 : sv1 - v0, su0 - u0 : su1 - u0]
         np.minimum(view, z, out=view)

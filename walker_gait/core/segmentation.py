@@ -821,10 +821,22 @@ class Segmentation:
         return np.where(self.mask, depth_m, np.float32(np.nan)).astype(np.float32, copy=False)
 
 
+def _select_rows(pts: F32, mask: BoolArray) -> F32:
+    """``pts[mask]`` for ``(N, 3)`` float32 rows, several times faster via a 12-byte void view."""
+    if pts.flags.c_contiguous and pts.dtype == np.float32:
+        rows = pts.view(np.dtype((np.void, 12))).reshape(-1)
+        return np.ascontiguousarray(rows[mask]).view(np.float32).reshape(-1, 3)
+    return np.ascontiguousarray(pts[mask], dtype=np.float32)
+
+
 class Segmenter:
     """Per-frame floor removal + ROI (+ optional static-structure removal).
 
-    ``intrinsics`` is only needed for the occupancy HMM's free-space evidence.
+    ``intrinsics`` (optional) must be those the points were back-projected with
+    (:class:`walker_gait.core.depth.DepthProjector`, stride 1).  When given and
+    matching the image size, walker-frame coordinates are computed from the depth
+    and cached per-column/per-row rays (faster than transforming the points); they
+    also enable the occupancy HMM's free-space evidence.
     Counters: ``frames``, ``empty_frames``, and the floor tracker's.
     """
 
@@ -840,6 +852,9 @@ class Segmenter:
         self.config.validate()
         self.floor_tracker = FloorTracker(self.config.floor, rng=rng)
         self.intrinsics = intrinsics
+        self._rays_for: CameraIntrinsics | None = None
+        self._rx: F32 = np.empty(0, dtype=np.float32)
+        self._ry: F32 = np.empty(0, dtype=np.float32)
         self.background = background
         if background is None and self.config.background_path:
             self.background = BackgroundModel.load(self.config.background_path)
@@ -849,6 +864,31 @@ class Segmenter:
         )
         self.frames = 0
         self.empty_frames = 0
+
+    def _walker_coords(self, pts: F32, z: F32, floor: FloorPlane) -> tuple[F32, F32, F32]:
+        """Flat walker-frame x, y and height above the floor (float32, m) of every pixel."""
+        rot, _ = floor.walker_transform()
+        rot32 = rot.astype(np.float32)
+        off = np.float32(floor.offset)
+        intr = self.intrinsics
+        if intr is not None and (intr.height, intr.width) == z.shape:
+            if self._rays_for != intr:
+                self._rx = ((np.arange(intr.width) - intr.cx) / intr.fx).astype(np.float32)
+                self._ry = ((np.arange(intr.height) - intr.cy) / intr.fy).astype(np.float32)
+                self._rays_for = intr
+            out = []
+            for k in range(3):
+                # coefficient image c(v, u) = R_k · (x/z, y/z, 1); walker coordinate = z * c
+                coef = np.add.outer(rot32[k, 1] * self._ry + rot32[k, 2], rot32[k, 0] * self._rx)
+                np.multiply(coef, z, out=coef)
+                out.append(coef.reshape(-1))
+            out[2] += off
+            return out[0], out[1], out[2]
+        xw = pts @ rot32[0]
+        yw = pts @ rot32[1]
+        h = pts @ rot32[2]
+        h += off
+        return xw, yw, h
 
     def set_background(self, model: BackgroundModel | None) -> None:
         """Use ``model`` (None = learn again from the next ``background_frames`` frames)."""
@@ -915,11 +955,7 @@ class Segmenter:
         yw: NDArray[np.float32] | None = None
         h: NDArray[np.float32] | None = None
         if floor.valid:
-            rot, _ = floor.walker_transform()
-            xw = pts @ rot[0].astype(np.float32)
-            yw = pts @ rot[1].astype(np.float32)
-            h = pts @ rot[2].astype(np.float32)
-            h += np.float32(floor.offset)
+            xw, yw, h = self._walker_coords(pts, z, floor)
             in_roi = (xw <= roi.forward) & (xw >= roi.near) & (yw <= roi.left) & (yw >= -roi.right)
             if roi.max_height is not None:
                 in_roi &= h <= roi.max_height
@@ -955,7 +991,7 @@ class Segmenter:
             static = self.hmm.static_points(pw)
             n_static = int(np.count_nonzero(static))
             mask[idx[static]] = False
-        fg = pts[mask]
+        fg = _select_rows(pts, mask)
         n_fg = int(fg.shape[0])
         return Segmentation(
             mask=mask.reshape(shape),

@@ -127,6 +127,7 @@ class TrackerConfig:
     lost_confidence: float = 0.25  # below this for `lost_frames` frames: re-initialise
     lost_frames: int = 8
     support_tol: float = 0.04  # m, surface distance counted as support for the confidence
+    fg_min_height: float = 0.03  # m, floor cut of the segmentation (model surface below it is unobservable)
 
     def __post_init__(self) -> None:
         if self.cue not in ("3d", "2d", "combined"):
@@ -361,7 +362,9 @@ class LegTracker:
             k = min(k, cfg.fg_max_points)
         k = min(k, n)
         idx = self.rng.choice(n, size=k, replace=False) if k < n else np.arange(n)
-        cue = CueImage.from_depth(depth, intrinsics=self.intrinsics, stride=cfg.cue2d_stride, floor=floor)
+        cue = CueImage.from_depth(
+            depth, intrinsics=self.intrinsics, stride=cfg.cue2d_stride, floor=floor, min_height=cfg.fg_min_height
+        )
         return _Frame(body=body, fg=pts[np.sort(idx)], fg_all_body=body.to_body(pts), cue=cue)
 
     # -- likelihood -------------------------------------------------------------

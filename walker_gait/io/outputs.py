@@ -602,11 +602,18 @@ def summary_to_json(summary: Mapping[str, Any]) -> dict[str, Any]:
     not part of the schema are kept, JSON-safe, under ``"extra"``.
 
     Every key of :data:`SUMMARY_JSON_KEYS` is present in the result; unknown values and NaN
-    become ``None`` (JSON ``null``).  ``scope`` becomes ``"window"``/``"session"``.
+    become ``None`` (JSON ``null``).  ``scope`` becomes ``"window"``/``"session"``.  An object
+    with a ``to_dict()`` method (``GaitSummaryData``) is accepted in place of the dict.
 
     Raises:
+        TypeError: ``summary`` is neither a mapping nor has ``to_dict()``.
         ValueError: a per-side field does not have exactly two values.
     """
+    if not isinstance(summary, Mapping) and callable(getattr(summary, "to_dict", None)):
+        summary = summary.to_dict()  # a GaitSummaryData passed directly
+    if not isinstance(summary, Mapping):
+        msg = f"summary must be a dict (GaitSummaryData.to_dict()), got {type(summary).__name__}"
+        raise TypeError(msg)
     out: dict[str, Any] = dict.fromkeys(SUMMARY_JSON_KEYS)
     extra: dict[str, Any] = {}
     json_keys = set(SUMMARY_JSON_KEYS)

@@ -99,10 +99,18 @@ class WalkerNode(Node):
 
     def raw_subscription(self, typename: str, topic: str, callback: Callable[[Any], None], qos: QoSProfile) -> Any:
         def on_bytes(data: bytes) -> None:
-            with self.guard(topic):
-                callback(M.deserialize(data, typename))
+            self.dispatch(topic, typename, callback, data)
 
         return self.create_subscription(rclpy_type(typename), topic, on_bytes, qos, raw=True)
+
+    def dispatch(self, topic: str, typename: str, callback: Callable[[Any], None], data: bytes) -> None:
+        """Deserialize and handle one message; any error skips it (logged once per kind, counted)."""
+        with self.guard(topic):
+            try:
+                msg = M.deserialize(data, typename)
+            except Exception as exc:  # noqa: BLE001 - undecodable bytes are one more kind of bad input
+                raise UndecodableMessage(f"cannot decode a {typename} message: {exc}") from exc
+            callback(msg)
 
     # -- errors and diagnostics --------------------------------------------------------------------
     def guard(self, where: str) -> _Guard:
@@ -130,6 +138,10 @@ class WalkerNode(Node):
     @property
     def problems(self) -> dict[str, int]:
         return dict(self._problems)
+
+
+class UndecodableMessage(ValueError):
+    kind = "undecodable_message"
 
 
 class _Guard:

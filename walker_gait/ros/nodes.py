@@ -205,7 +205,7 @@ class LegTrackerNode(WalkerNode):
         floor = M.floor_from_msg(parts["floor"])
         pose = self.tracker.update(stamp=M.stamp_to_s(header.stamp), points=points, depth_fg=depth_fg, floor=floor)
         self.pub_joints(M.make_joint_state(pose, header))
-        self.pub_track(M.make_leg_track(pose, header, particle_count=int(getattr(self.config, "num_particles", 0))))
+        self.pub_track(M.make_leg_track(pose, header, particle_count=int(getattr(self.config, "n_particles", 0))))
         self.pub_markers(M.make_markers(pose, header))
         self.frames_ok += 1
 
@@ -259,8 +259,8 @@ class GaitAnalyzerNode(WalkerNode):
         for st in steps:
             self.pub_step(M.make_step(st, header.frame_id))
         if steps:
-            self.pub_summary(M.make_gait_summary(self.analyzer.summary(window_s=None).to_msg_dict(), header))
-            self.pub_window(M.make_gait_summary(self.analyzer.summary(window_s=self.window_s).to_msg_dict(), header))
+            self.pub_summary(M.make_gait_summary(self.analyzer.summary(window_s=None).to_dict(), header))
+            self.pub_window(M.make_gait_summary(self.analyzer.summary(window_s=self.window_s).to_dict(), header))
 
     def close(self) -> None:
         events, steps = self.analyzer.finish()

@@ -134,15 +134,15 @@ class GaitParams:
     toe_out: float = np.deg2rad(6.0)  # foot progression angle (rad, outwards)
     knee_min_flex: float = np.deg2rad(5.0)  # minimum stance knee flexion (rad)
     heel_strike_pitch: float = np.deg2rad(18.0)  # sole pitch at HS (rad, toes up)
-    toe_off_pitch: float = np.deg2rad(-45.0)  # sole pitch at TO (rad, toes down)
+    toe_off_pitch: float = np.deg2rad(-40.0)  # sole pitch at TO (rad, toes down)
     foot_flat_frac: float = 0.14  # foot flat after HS, fraction of nominal stance time
-    heel_off_frac: float = 0.62  # heel off, fraction of nominal stance time
+    heel_off_frac: float = 0.45  # heel off, fraction of nominal stance time
     toe_clearance: float = 0.015  # m, minimum sole clearance in mid swing
     first_step_factor: float = 0.75  # first step of a bout relative to step_length
     pelvis_sway: float = 0.35  # lateral pelvis excursion as a fraction of the stance foot offset
     pelvis_rotation: float = np.deg2rad(4.0)  # transverse rotation amplitude (rad)
     pelvis_obliquity: float = np.deg2rad(3.0)  # frontal drop of the swing side (rad)
-    trunk_lean: float = 0.02  # m, pelvis ahead of the stance ankle at mid stance
+    trunk_lean: float = 0.10  # m, pelvis ahead of the stance ankle at mid stance
 
     @property
     def step_time(self) -> float:

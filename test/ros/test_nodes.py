@@ -1,0 +1,157 @@
+"""Nodes survive bad input: nothing escapes a callback, each kind is logged once and counted, and the
+next good frame is processed. Messages enter through the same dispatch path as DDS deliveries."""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from typing import Any
+
+import numpy as np
+import pytest
+import rclpy
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from walker_gait import messages as M
+from walker_gait.core.types import CameraIntrinsics, FloorPlane
+
+pytestmark = pytest.mark.ros
+
+INTR = CameraIntrinsics(width=64, height=48, fx=60.0, fy=60.0, cx=31.5, cy=23.5)
+
+
+@pytest.fixture(scope="module")
+def rclpy_context() -> Iterator[None]:
+    rclpy.init()
+    yield
+    rclpy.shutdown()
+
+
+def good_depth(h: int = 48, w: int = 64) -> np.ndarray:
+    """Floor seen by a camera 0.5 m up, pitched 0.5 rad down, plus a box 'leg'."""
+    floor = FloorPlane.from_camera_pose(height=0.5, pitch=0.5)
+    v, u = np.mgrid[0:h, 0:w].astype(np.float64)
+    rays = np.stack([(u - INTR.cx) / INTR.fx, (v - INTR.cy) / INTR.fy, np.ones_like(u)], axis=-1)
+    denom = rays @ floor.normal
+    with np.errstate(divide="ignore", invalid="ignore"):
+        z = np.where(denom < -1e-6, -floor.offset / denom, 0.0)
+    z[10:40, 25:35] = 0.8
+    return (np.clip(z, 0, 4) * 1000).astype(np.uint16)
+
+
+def image_bytes(depth: np.ndarray, *, encoding: str = "16UC1", stamp: float = 1.0) -> bytes:
+    return M.serialize(M.make_image(depth, M.make_header(stamp, "cam"), encoding=encoding))
+
+
+def info_bytes() -> bytes:
+    return M.serialize(M.make_camera_info(INTR, M.make_header(1.0, "cam")))
+
+
+def make_depth_node() -> Any:
+    from walker_gait.ros.nodes import DepthToCloudNode
+
+    node = DepthToCloudNode()
+    published: list[Any] = []
+    node.pub_points = published.append
+    return node, published
+
+
+def test_depth_without_camera_info_is_skipped_then_processed(rclpy_context: None) -> None:
+    node, published = make_depth_node()
+    try:
+        node.dispatch("depth/image_raw", M.IMAGE, node.on_image, image_bytes(good_depth()))
+        assert published == []
+        node.dispatch("depth/camera_info", M.CAMERA_INFO, node.on_info, info_bytes())
+        node.dispatch("depth/image_raw", M.IMAGE, node.on_image, image_bytes(good_depth()))
+        assert len(published) == 1
+        cloud = M.read_pointcloud2(published[0])
+        assert cloud.shape == (48, 64, 3)
+        assert np.nanmax(cloud[..., 2]) == pytest.approx(good_depth().max() / 1000, rel=1e-6)
+    finally:
+        node.destroy_node()
+
+
+def test_bad_camera_info_is_rejected_and_counted(rclpy_context: None) -> None:
+    node, published = make_depth_node()
+    try:
+        bad = M.make_camera_info(INTR, M.make_header(1.0, "cam"))
+        bad.k[0] = 0.0
+        bad.p[0] = 0.0
+        for _ in range(3):
+            node.dispatch("depth/camera_info", M.CAMERA_INFO, node.on_info, M.serialize(bad))
+        assert sum(node.problems.values()) == 3 and len(node.problems) == 1
+        node.dispatch("depth/camera_info", M.CAMERA_INFO, node.on_info, info_bytes())
+        node.dispatch("depth/image_raw", M.IMAGE, node.on_image, image_bytes(good_depth()))
+        assert len(published) == 1
+    finally:
+        node.destroy_node()
+
+
+ENCODINGS = st.sampled_from(["16UC1", "mono16", "32FC1", "rgb8", "8UC1", "bgr8", "", "64FC1"])
+
+
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(h=st.integers(0, 60), w=st.integers(0, 80), pad=st.integers(-4, 8), encoding=ENCODINGS,
+       fill=st.sampled_from(["random", "zero", "nan", "inf", "max"]), bigendian=st.booleans(),
+       truncate=st.integers(0, 5), seed=st.integers(0, 2**16))
+def test_random_bad_frames_never_escape_and_good_frame_follows(rclpy_context: None, h: int, w: int, pad: int,
+                                                               encoding: str, fill: str, bigendian: bool,
+                                                               truncate: int, seed: int) -> None:
+    node, published = make_depth_node()
+    try:
+        node.dispatch("depth/camera_info", M.CAMERA_INFO, node.on_info, info_bytes())
+        rng = np.random.default_rng(seed)
+        bpp = 4 if encoding == "32FC1" else 2
+        step = max(w * bpp + pad, 0)
+        raw = rng.integers(0, 256, size=step * h, dtype=np.uint8)
+        if fill == "zero":
+            raw[:] = 0
+        elif fill == "max":
+            raw[:] = 255
+        elif encoding == "32FC1" and fill in ("nan", "inf") and w > 0 and h > 0 and pad >= 0:
+            vals = np.full((h, step // 4), np.nan if fill == "nan" else np.inf, dtype=np.float32)
+            raw = np.frombuffer(vals.tobytes(), dtype=np.uint8)
+        if truncate:
+            raw = raw[: max(0, raw.size - truncate * 7)]
+        msg = M.msg_class(M.IMAGE)(header=M.make_header(2.0, "cam"), height=h, width=w, encoding=encoding,
+                                   is_bigendian=int(bigendian), step=step, data=raw)
+        node.dispatch("depth/image_raw", M.IMAGE, node.on_image, M.serialize(msg))  # must not raise
+        node.dispatch("depth/image_raw", M.IMAGE, node.on_image, b"\x00\x01\x00\x00garbage")  # undecodable
+        assert "undecodable_message" in node.problems
+        before = len(published)
+        node.dispatch("depth/image_raw", M.IMAGE, node.on_image, image_bytes(good_depth(), stamp=3.0))
+        assert len(published) == before + 1
+    finally:
+        node.destroy_node()
+
+
+def test_floor_segmentation_node_handles_all_invalid_and_good_clouds(rclpy_context: None) -> None:
+    from walker_gait.core.depth import DepthProjector, decode_depth
+    from walker_gait.ros.nodes import FloorSegmentationNode
+
+    node = FloorSegmentationNode()
+    out: dict[str, list[Any]] = {"fg": [], "mask": [], "floor": []}
+    node.pub_fg, node.pub_mask, node.pub_floor = out["fg"].append, out["mask"].append, out["floor"].append
+    try:
+        proj = DepthProjector()
+        proj.set_intrinsics(INTR)
+        nan_cloud = np.full((48, 64, 3), np.nan, dtype=np.float32)
+        node.dispatch("points", M.POINT_CLOUD2, node.on_cloud,
+                      M.serialize(M.make_pointcloud2(nan_cloud, M.make_header(1.0, "cam"))))
+        node.dispatch("points", M.POINT_CLOUD2, node.on_cloud,
+                      M.serialize(M.make_pointcloud2(np.zeros((5, 3), np.float32), M.make_header(1.0, "cam"))))
+        assert node.problems  # unorganised cloud counted
+        d = good_depth()
+        depth = decode_depth(d.tobytes(), encoding="16UC1", width=64, height=48, step=128, is_bigendian=False)
+        for i in range(3):
+            node.dispatch("points", M.POINT_CLOUD2, node.on_cloud,
+                          M.serialize(M.make_pointcloud2(proj.points(depth), M.make_header(2.0 + i, "cam"))))
+        assert len(out["floor"]) == 4 and len(out["mask"]) == 4
+        last_floor = M.floor_from_msg(out["floor"][-1])
+        assert last_floor.valid
+        assert last_floor.offset == pytest.approx(0.5, abs=0.03)
+        mask = M.image_to_mask(out["mask"][-1])
+        assert mask[12:25, 27:33].mean() > 0.9  # the box (above the floor) is foreground
+        assert mask[45:, :].mean() < 0.02  # the floor is not
+    finally:
+        node.destroy_node()

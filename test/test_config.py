@@ -1,0 +1,56 @@
+"""config/walker_gait.yaml, the parameter spec and the core configs agree."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from walker_gait.config import ParameterError, build, flatten, load_params_file, parse_overrides
+from walker_gait.paramspec import NODE_PARAMS, all_params, validate_node_params
+
+
+def test_params_file_names_only_known_parameters(repo_root: Path) -> None:
+    params = load_params_file(repo_root / "config" / "walker_gait.yaml")
+    assert set(params) == set(NODE_PARAMS)
+    for node, values in params.items():
+        validate_node_params(node, values)
+
+
+def test_node_level_defaults_in_file_match_spec(repo_root: Path) -> None:
+    params = load_params_file(repo_root / "config" / "walker_gait.yaml")
+    for node, spec in NODE_PARAMS.items():
+        for name, default, doc in spec:
+            assert doc, f"{node}.{name} has no description"
+            if name in params[node]:
+                assert params[node][name] == default, f"{node}.{name}"
+
+
+def test_unknown_parameter_is_rejected_with_its_name() -> None:
+    with pytest.raises(ParameterError, match="no_such_param"):
+        validate_node_params("gait_analyzer", {"no_such_param": 1})
+    with pytest.raises(ParameterError, match="unknown node"):
+        validate_node_params("nope", {})
+
+
+def test_bad_value_type_is_rejected() -> None:
+    from walker_gait.core.segmentation import SegmenterConfig
+
+    with pytest.raises(ParameterError, match="roi.forward|forward"):
+        build(SegmenterConfig, {"roi.forward": "far"})
+
+
+def test_build_round_trips_flatten() -> None:
+    from walker_gait.core.segmentation import SegmenterConfig
+
+    cfg = build(SegmenterConfig, {"roi.forward": 1.2, "floor_method": "background"})
+    assert cfg.roi.forward == 1.2 and cfg.floor_method == "background"
+    again = build(SegmenterConfig, flatten(cfg))
+    assert flatten(again) == flatten(cfg)
+
+
+def test_parse_overrides_types_values() -> None:
+    assert parse_overrides(["leg_tracker.n_particles=300", "gait_analyzer.use_odometry=true", "a.b=x"]) == {
+        "leg_tracker.n_particles": 300, "gait_analyzer.use_odometry": True, "a.b": "x"}
+    with pytest.raises(ParameterError, match="KEY=VALUE"):
+        parse_overrides(["nonsense"])

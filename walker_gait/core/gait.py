@@ -1,0 +1,1070 @@
+"""Gait events (heel strike / toe off) and clinical step metrics from tracked leg poses.
+
+Pure Python + numpy; no ROS.  :class:`GaitAnalyzer` is fed one :class:`LegPose` (camera
+optical frame) and the current :class:`FloorPlane` per frame, in time order, and returns the
+gait events and steps it could finalise in that call.  The metric definitions (GAITRite /
+ProtoKinetics conventions) are written out in ``docs/GAIT_METRICS.md``.
+
+Method in short (all geometry in the floor plane of the *walker* frame, see ``types.py``):
+
+1. Heel and toe of each foot are transformed into the walker frame (x towards the user,
+   z up, metres); ``z`` is the height above the floor, so camera pitch/roll drop out.
+   Each frame gets a quality ``q`` (see :meth:`GaitAnalyzer.frame_quality`).
+2. Positions are smoothed by a local quadratic fit over ``±smoothing_half_window_s``
+   (a Savitzky-Golay filter that tolerates irregular stamps and missing frames); this
+   delays the analysis by that half window.
+3. The walker moves with the user, so a planted foot drifts through the walker frame at the
+   walker's speed.  For every foot we integrate its heel/toe motion *relative to the other
+   foot's planted points* (points within ``plant_height_tol_m`` of that point's floor
+   baseline, weighted by lowness).  While the other foot is planted this relative track is
+   the foot's displacement in the world, independent of how the walker moves.
+4. A state machine (INIT, DOUBLE_SUPPORT, SWING_LEFT, SWING_RIGHT) runs on those tracks:
+   toe off = the toe leaves its resting place by more than ``min_swing_distance_m``, moving
+   forward (tiny shuffles and a moving walker with still feet produce nothing); heel strike
+   = the swinging heel comes to rest (speed < ``rest_speed_mps`` over ``rest_window_s``)
+   near the floor.  Both are then timed to sub-frame precision by fitting a hinge
+   ``y = b + a*max(0, ±(t - t_c))**p`` (p in {1, 1.5, 2, 3}) to the raw height and the raw
+   horizontal displacement (relative to the other, planted foot) around the detection.
+5. Footfalls are located in the world by chaining: at the heel strike of foot B, foot A is
+   still planted (double support), so the step vector is the mean over the double-support
+   frames of ``heel_B - (toe_A + o_A)``, where ``o_A`` is A's heel-minus-toe offset measured
+   while A was flat on the floor.  Both terms are measured in the same frame at the same
+   instant, so the walker's own motion cancels exactly.  Step vectors are chained into a
+   footprint map; the line of progression is the mean direction of the last
+   ``progression_strides`` strides (fallback: walker -x, or the odometry heading).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass, field
+from enum import IntEnum
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from walker_gait.core.types import (
+    HEEL,
+    TOE,
+    EventKind,
+    FloatArray,
+    FloorPlane,
+    GaitEvent,
+    LegPose,
+    Side,
+    Step,
+    TrackStatus,
+)
+
+__all__ = [
+    "GaitConfig",
+    "GaitAnalyzer",
+    "GaitSummaryData",
+    "GaitInputError",
+    "GaitState",
+    "summarize_steps",
+]
+
+_H, _T = 0, 1  # heel / toe index in the internal (2 feet, 2 points) arrays
+
+
+class GaitInputError(ValueError):
+    """Invalid input to :class:`GaitAnalyzer` (bad shape, non-increasing stamp, bad config)."""
+
+
+class GaitState(IntEnum):
+    """Phase of the event state machine."""
+
+    INIT = 0  # (re)starting: waiting until both feet are seen at rest together
+    DOUBLE_SUPPORT = 1  # both feet on the floor (also: standing still)
+    SWING_LEFT = 2  # left foot in swing, right foot planted
+    SWING_RIGHT = 3  # right foot in swing, left foot planted
+
+
+@dataclass(kw_only=True)
+class GaitConfig:
+    """Parameters of :class:`GaitAnalyzer` (they become ROS parameters of the node).
+
+    Units: metres, seconds, m/s; fractions 0..1.
+    """
+
+    smoothing_half_window_s: float = 0.1
+    """Half width (s) of the local quadratic smoother; also the minimum analysis latency."""
+    rest_window_s: float = 0.15
+    """Window (s) over which a point's mean speed decides whether it is at rest."""
+    rest_speed_mps: float = 0.15
+    """A point moving slower than this (m/s, world, mean over ``rest_window_s``) is at rest."""
+    min_swing_distance_m: float = 0.06
+    """A foot must leave its resting place by at least this (m, horizontal) to count as a
+    swing; smaller motions (shuffling in place, tracker jitter) produce no events."""
+    min_swing_time_s: float = 0.12
+    """Shortest plausible swing (s): heel strikes earlier than this after toe off are ignored."""
+    max_swing_time_s: float = 3.0
+    """A swing not landing within this time (s) resets the state machine."""
+    plant_height_tol_m: float = 0.03
+    """Height band (m) above a point's floor baseline over which its 'planted' weight
+    falls from 1 to 0 (after ``plant_height_margin_m``)."""
+    plant_height_margin_m: float = 0.01
+    """Height (m) above the baseline still counted as fully on the floor (absorbs jitter)."""
+    hs_height_tol_m: float = 0.04
+    """A heel strike needs the heel within this height (m) of its floor baseline."""
+    baseline_window_s: float = 10.0
+    """History (s) used to estimate each point's floor-contact height (baseline)."""
+    baseline_percentile: float = 25.0
+    """Percentile of the recent heights taken as that baseline."""
+    event_fit_pre_s: float = 0.25
+    """Data (s) before the detection used by the sub-frame hinge fit of an event."""
+    event_fit_post_s: float = 0.12
+    """Data (s) after a heel-strike detection used by its fit (adds to the latency)."""
+    max_gap_s: float = 1.0
+    """Tracking gaps (s) longer than this reset the state machine; steps inside are lost."""
+    min_confidence: float = 0.5
+    """Pose confidence below which a frame counts as degraded."""
+    degraded_quality: float = 0.5
+    """Quality factor applied to DEGRADED / low-confidence / invalid-floor frames."""
+    double_support_max_s: float = 0.6
+    """Longest time (s) after a heel strike used to average the step vector."""
+    progression_strides: int = 4
+    """Number of recent strides averaged for the line of progression."""
+    max_step_time_s: float = 2.5
+    """Steps longer than this (s; gait initiation after a stop) are excluded from temporal
+    summary statistics, cadence and speed."""
+    summary_window_s: float = 10.0
+    """Default rolling-window length (s) of :meth:`GaitAnalyzer.summary`'s WINDOW scope."""
+    summary_min_confidence: float = 0.5
+    """Steps below this confidence are counted but excluded from summary means."""
+    odometry_base_yaw_rad: float = math.pi
+    """Yaw (rad) of the walker frame's +x axis in the odometry base frame (base x forward,
+    walker x towards the user: pi)."""
+    history_s: float = 30.0
+    """Frame history kept (s); must exceed all latencies and ``baseline_window_s``."""
+
+    def __post_init__(self) -> None:
+        positive = {
+            "smoothing_half_window_s": self.smoothing_half_window_s,
+            "rest_window_s": self.rest_window_s,
+            "rest_speed_mps": self.rest_speed_mps,
+            "min_swing_distance_m": self.min_swing_distance_m,
+            "plant_height_tol_m": self.plant_height_tol_m,
+            "hs_height_tol_m": self.hs_height_tol_m,
+            "baseline_window_s": self.baseline_window_s,
+            "event_fit_pre_s": self.event_fit_pre_s,
+            "event_fit_post_s": self.event_fit_post_s,
+            "max_gap_s": self.max_gap_s,
+            "double_support_max_s": self.double_support_max_s,
+            "max_step_time_s": self.max_step_time_s,
+            "summary_window_s": self.summary_window_s,
+            "history_s": self.history_s,
+        }
+        for name, value in positive.items():
+            if not (math.isfinite(value) and value > 0):
+                raise GaitInputError(f"GaitConfig.{name} must be positive and finite, got {value}")
+        if self.progression_strides < 1:
+            raise GaitInputError(f"GaitConfig.progression_strides must be >= 1, got {self.progression_strides}")
+        if not 0 < self.baseline_percentile < 100:
+            raise GaitInputError(f"GaitConfig.baseline_percentile must be in (0, 100), got {self.baseline_percentile}")
+        if self.history_s < self.baseline_window_s + 2 * self.double_support_max_s:
+            raise GaitInputError("GaitConfig.history_s must exceed baseline_window_s + 2*double_support_max_s")
+
+
+@dataclass(kw_only=True)
+class GaitSummaryData:
+    """Mirror of ``walker_gait_msgs/GaitSummary`` (pairs are ``[LEFT, RIGHT]``; NaN = unknown)."""
+
+    WINDOW = 0
+    SESSION = 1
+
+    stamp: float  # s, heel-strike time of the latest step in scope (NaN if none)
+    scope: int  # WINDOW or SESSION
+    window_duration: float  # s, 0 for SESSION
+    duration: float  # s, first to last heel strike in scope
+    step_count: int
+    cadence: float  # steps/min
+    gait_speed: float  # m/s
+    step_length_mean: float  # m
+    step_width_mean: float  # m
+    step_time_mean: float  # s
+    step_length_mean_side: tuple[float, float]
+    step_length_sd_side: tuple[float, float]
+    step_length_cv_side: tuple[float, float]  # %
+    step_width_mean_side: tuple[float, float]
+    step_width_sd_side: tuple[float, float]
+    step_width_cv_side: tuple[float, float]  # %
+    step_time_mean_side: tuple[float, float]
+    step_time_sd_side: tuple[float, float]
+    step_time_cv_side: tuple[float, float]  # %
+    stance_percent_side: tuple[float, float]  # % of gait cycle
+    swing_percent_side: tuple[float, float]  # % of gait cycle
+    double_support_percent: float  # % of gait cycle
+    step_length_symmetry: float  # LEFT/RIGHT
+    swing_time_symmetry: float  # LEFT/RIGHT
+    mean_confidence: float  # 0..1
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready dict (NaN/inf become ``None``, pairs become lists)."""
+
+        def clean(v: Any) -> Any:
+            if isinstance(v, (tuple, list)):
+                return [clean(x) for x in v]
+            if isinstance(v, float) and not math.isfinite(v):
+                return None
+            return v
+
+        out = {k: clean(v) for k, v in asdict(self).items()}
+        out["scope_name"] = "window" if self.scope == self.WINDOW else "session"
+        return out
+
+
+# --------------------------------------------------------------------------------------
+# helpers
+
+
+def _nanfloat(x: float | None) -> float:
+    return float("nan") if x is None else float(x)
+
+
+def _hinge_time(
+    t: FloatArray,
+    channels: list[FloatArray],
+    *,
+    rising: bool,
+    tc_lo: float,
+    tc_hi: float,
+    step_s: float = 0.002,
+) -> float:
+    """Breakpoint time of a hinge model fitted jointly to several signals.
+
+    Each channel ``y`` is modelled as ``b + a * max(0, t - t_c)**p`` (``rising``: flat then
+    moving, e.g. toe off) or ``b + a * max(0, t_c - t)**p`` (moving then flat, heel strike),
+    with ``b, a`` free per channel and ``p`` in {1, 1.5, 2, 3} picked per channel.  ``t_c`` is
+    shared and searched on a ``step_s`` grid in ``[tc_lo, tc_hi]``; the sum of squared
+    residuals (metres², all channels share units and noise) is minimised.  NaN samples are
+    ignored.  Returns NaN when no channel has four samples.
+    """
+    if not tc_hi > tc_lo:
+        tc_hi = tc_lo + step_s
+    grid = np.arange(tc_lo, tc_hi + 0.5 * step_s, step_s)
+    total = np.zeros(grid.size)
+    used = False
+    for y in channels:
+        ok = np.isfinite(y) & np.isfinite(t)
+        if ok.sum() < 4:
+            continue
+        used = True
+        tt, yy = t[ok], y[ok]
+        n = float(yy.size)
+        sy = yy.sum()
+        syy = (yy * yy).sum()
+        lag = (tt[None, :] - grid[:, None]) if rising else (grid[:, None] - tt[None, :])
+        base = np.maximum(lag, 0.0)
+        best = np.full(grid.size, np.inf)
+        for p in (1.0, 1.5, 2.0, 3.0):
+            x = base**p
+            sx = x.sum(axis=1)
+            sxx = (x * x).sum(axis=1)
+            sxy = x @ yy
+            det = n * sxx - sx * sx
+            good = det > 1e-12 * max(1.0, n)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                a = np.where(good, (n * sxy - sx * sy) / det, 0.0)
+            b = (sy - a * sx) / n
+            # SSE = sum((y - b - a x)^2) expanded
+            sse = syy + n * b * b + a * a * sxx - 2 * b * sy - 2 * a * sxy + 2 * a * b * sx
+            sse = np.where(good, sse, syy - sy * sy / n)
+            best = np.minimum(best, sse)
+        total += best
+    if not used:
+        return float("nan")
+    return float(grid[int(np.argmin(total))])
+
+
+def _local_quadratic(t: FloatArray, y: NDArray[np.float64], t0: float) -> NDArray[np.float64] | None:
+    """Value at ``t0`` of a least-squares quadratic (linear if few samples) in time.
+
+    ``y`` is ``(N, D)``; returns ``(D,)`` or None without samples.
+    """
+    n = t.size
+    if n == 0:
+        return None
+    if n == 1:
+        return y[0].copy()
+    dt = t - t0
+    deg = 2 if n >= 5 else 1
+    a = np.vander(dt, deg + 1, increasing=True)
+    coef, *_ = np.linalg.lstsq(a, y, rcond=None)
+    return coef[0]
+
+
+@dataclass
+class _PendingHS:
+    side: int
+    k_det: int  # buffer index of the detection frame (absolute)
+    t_det: float
+    t_to: float  # toe-off time of this swing (NaN if unknown)
+    direction: FloatArray  # (2,) unit horizontal swing direction (walker frame)
+
+
+@dataclass
+class _PendingStep:
+    side: int  # foot whose heel strike ends the step
+    t_hs: float
+    hs_conf: float
+    o_opp: FloatArray | None  # (2,) opposite foot heel - toe offset (walker frame)
+    o_fallback: bool
+    t_end: float | None = None  # closing time: opposite toe off (or None)
+
+
+@dataclass
+class _FootHistory:
+    hs: list[float] = field(default_factory=list)
+    to: list[float] = field(default_factory=list)
+
+
+# --------------------------------------------------------------------------------------
+# analyzer
+
+
+class GaitAnalyzer:
+    """Online heel-strike / toe-off detection and step metrics.
+
+    Call :meth:`update` once per frame in strictly increasing stamp order, optionally
+    :meth:`update_odometry` whenever odometry arrives, :meth:`finish` at the end of a
+    recording.  Results are returned as they are finalised (events typically
+    ``smoothing_half_window_s + event_fit_post_s + rest_window_s`` late, steps when the
+    following double support ends, at most ``double_support_max_s`` later), stamped with
+    their interpolated true times.
+    """
+
+    def __init__(self, config: GaitConfig | None = None) -> None:
+        self.config = config or GaitConfig()
+        cap = 1024
+        self._n = 0
+        self._t = np.zeros(cap)
+        self._q = np.zeros(cap)
+        self._valid = np.zeros(cap, dtype=bool)
+        self._raw = np.full((cap, 2, 2, 3), np.nan)  # walker frame [foot, heel/toe, xyz]
+        self._rot = np.zeros((cap, 3, 3))
+        self._off = np.zeros((cap, 3))
+        self._smooth = np.full((cap, 2, 2, 3), np.nan)
+        self._track = np.full((cap, 2, 2, 2), np.nan)  # world-ish relative tracks (xy)
+        self._ground = np.full((cap, 2), np.nan)  # cumulative ground motion in walker frame
+        self._weight = np.zeros((cap, 2, 2))
+        self._next_proc = 0  # next buffer index to run the state machine on
+        self._last_k: int | None = None  # last processed valid frame
+        self._baseline = np.full((2, 2), np.nan)
+        self._baseline_age = 10**9
+        self._state = GaitState.INIT
+        self._anchor = np.full((2, 2), np.nan)  # toe rest position per foot (track xy)
+        self._swing_heel_anchor = np.full(2, np.nan)
+        self._swing_start_t = float("nan")
+        self._swing_to_t = float("nan")
+        self._rest_time = np.zeros(2)
+        self._o_sum = np.zeros((2, 2))
+        self._o_n = np.zeros(2)
+        self._o_best = [None, None]  # type: list[tuple[float, FloatArray] | None]
+        self._pending_hs: list[_PendingHS] = []
+        self._pending_steps: list[_PendingStep] = []
+        self._feet = [_FootHistory(), _FootHistory()]
+        self._footprint: list[FloatArray | None] = [None, None]
+        self._strides: list[FloatArray] = []
+        self._steps: list[Step] = []
+        self._events: list[GaitEvent] = []
+        self._step_walking: list[bool] = []
+        self._odo: list[tuple[float, float, float, float]] = []
+        self._lost: list[tuple[float, float]] = []
+        self._out_events: list[GaitEvent] = []
+        self._out_steps: list[Step] = []
+        self._finished = False
+
+    # ------------------------------------------------------------------ public API
+
+    @property
+    def state(self) -> GaitState:
+        """Current phase of the state machine (lags the input by the smoothing window)."""
+        return self._state
+
+    @property
+    def steps(self) -> list[Step]:
+        """All steps emitted so far."""
+        return list(self._steps)
+
+    @property
+    def events(self) -> list[GaitEvent]:
+        """All events emitted so far."""
+        return list(self._events)
+
+    @property
+    def lost_intervals(self) -> list[tuple[float, float]]:
+        """Tracking gaps longer than ``max_gap_s`` (start, end stamps, s) that reset detection."""
+        return list(self._lost)
+
+    def frame_quality(self, pose: LegPose, floor: FloorPlane) -> float:
+        """Quality ``q`` (0..1) of one frame, the basis of all confidences.
+
+        ``q = 0`` when the status is NO_USER/SEARCHING, a heel/toe point is not finite or the
+        floor normal is not finite (the frame is then a gap and is not used); otherwise
+        ``q = clip(confidence, 0, 1)``, multiplied by ``degraded_quality`` when the status is
+        DEGRADED, the confidence is below ``min_confidence`` or the floor is marked invalid.
+        """
+        pts = np.asarray(pose.points, dtype=np.float64)
+        if pose.status not in (TrackStatus.TRACKING, TrackStatus.DEGRADED):
+            return 0.0
+        if not np.all(np.isfinite(pts[:, [HEEL, TOE], :])):
+            return 0.0
+        if not np.all(np.isfinite(np.asarray(floor.normal, dtype=np.float64))) or not math.isfinite(floor.offset):
+            return 0.0
+        conf = float(pose.confidence) if math.isfinite(pose.confidence) else 0.0
+        q = min(max(conf, 0.0), 1.0)
+        if pose.status == TrackStatus.DEGRADED or conf < self.config.min_confidence or not floor.valid:
+            q *= self.config.degraded_quality
+        return q
+
+    def update_odometry(self, stamp: float, x: float, y: float, yaw: float) -> None:
+        """Optional walker odometry: base pose (m, m, rad) in a fixed world frame at ``stamp`` (s).
+
+        When given, step vectors are rotated into the odometry world frame (so turning walks
+        keep a consistent footprint map) and the line of progression falls back to the
+        odometry heading.  Samples must come in time order.
+        """
+        if self._odo and stamp <= self._odo[-1][0]:
+            return
+        if not all(math.isfinite(v) for v in (stamp, x, y, yaw)):
+            raise GaitInputError("odometry values must be finite")
+        self._odo.append((float(stamp), float(x), float(y), float(yaw)))
+
+    def update(self, pose: LegPose, floor: FloorPlane) -> tuple[list[GaitEvent], list[Step]]:
+        """Feed one frame; returns ``(events, steps)`` finalised during this call (time order)."""
+        if self._finished:
+            raise GaitInputError("update() called after finish()")
+        pts = np.asarray(pose.points, dtype=np.float64)
+        if pts.shape != (2, 5, 3):
+            raise GaitInputError(f"LegPose.points must have shape (2, 5, 3), got {pts.shape}")
+        stamp = float(pose.stamp)
+        if not math.isfinite(stamp):
+            raise GaitInputError("LegPose.stamp must be finite")
+        if self._n and stamp <= self._t[self._n - 1]:
+            raise GaitInputError(f"stamps must increase: {stamp} after {self._t[self._n - 1]}")
+        q = self.frame_quality(pose, floor)
+        self._append(stamp, q, pts, floor)
+        self._advance(horizon=stamp - self.config.smoothing_half_window_s)
+        return self._drain()
+
+    def finish(self) -> tuple[list[GaitEvent], list[Step]]:
+        """Flush: analyse the remaining frames and close pending events/steps."""
+        if not self._finished:
+            self._finished = True
+            self._advance(horizon=math.inf)
+            self._flush_pending(final=True)
+        return self._drain()
+
+    def summary(self, *, window_s: float | None = None) -> GaitSummaryData:
+        """Summary of the whole session (``window_s=None``) or of the last ``window_s`` seconds."""
+        steps = self._steps
+        scope = GaitSummaryData.SESSION
+        if window_s is not None:
+            if not (math.isfinite(window_s) and window_s > 0):
+                raise GaitInputError(f"window_s must be positive, got {window_s}")
+            scope = GaitSummaryData.WINDOW
+            if steps:
+                t_last = steps[-1].stamp
+                steps = [s for s in steps if s.stamp >= t_last - window_s]
+        return summarize_steps(
+            steps,
+            scope=scope,
+            window_duration=0.0 if window_s is None else float(window_s),
+            max_step_time_s=self.config.max_step_time_s,
+            min_confidence=self.config.summary_min_confidence,
+        )
+
+    # ------------------------------------------------------------------ buffer
+
+    def _grow(self) -> None:
+        cap = self._t.size * 2
+        for name in ("_t", "_q", "_valid", "_raw", "_rot", "_off", "_smooth", "_track", "_ground", "_weight"):
+            old = getattr(self, name)
+            new = np.zeros((cap,) + old.shape[1:], dtype=old.dtype)
+            if old.dtype.kind == "f" and name not in ("_t", "_q", "_rot", "_off", "_weight"):
+                new[...] = np.nan
+            new[: self._n] = old[: self._n]
+            setattr(self, name, new)
+
+    def _trim(self) -> None:
+        """Drop frames older than ``history_s`` (keeps indices consistent)."""
+        t_now = self._t[self._n - 1]
+        cut = int(np.searchsorted(self._t[: self._n], t_now - self.config.history_s))
+        cut = min(cut, self._next_proc - 1, (self._last_k or 0))
+        for p in self._pending_hs:
+            cut = min(cut, p.k_det - 200)
+        if cut < 256:
+            return
+        for name in ("_t", "_q", "_valid", "_raw", "_rot", "_off", "_smooth", "_track", "_ground", "_weight"):
+            arr = getattr(self, name)
+            arr[: self._n - cut] = arr[cut : self._n]
+        self._n -= cut
+        self._next_proc -= cut
+        if self._last_k is not None:
+            self._last_k -= cut
+        for p in self._pending_hs:
+            p.k_det -= cut
+
+    def _append(self, stamp: float, q: float, pts: FloatArray, floor: FloorPlane) -> None:
+        if self._n >= self._t.size:
+            self._trim()
+            if self._n >= self._t.size:
+                self._grow()
+        k = self._n
+        self._n += 1
+        self._t[k] = stamp
+        self._q[k] = q
+        self._valid[k] = q > 0
+        self._smooth[k] = np.nan
+        self._track[k] = np.nan
+        self._ground[k] = np.nan
+        self._weight[k] = 0.0
+        if q > 0:
+            rot, off = floor.walker_transform()
+            self._rot[k] = rot
+            self._off[k] = off
+            cam = pts[:, [HEEL, TOE], :]
+            self._raw[k] = cam @ rot.T + off
+        else:
+            self._raw[k] = np.nan
+
+    # ------------------------------------------------------------------ main loop
+
+    def _advance(self, *, horizon: float) -> None:
+        h = self.config.smoothing_half_window_s
+        while self._next_proc < self._n and self._t[self._next_proc] <= horizon:
+            k = self._next_proc
+            self._next_proc += 1
+            if self._valid[k]:
+                self._smooth_frame(k, h)
+                self._process(k)
+        self._flush_pending(final=False, horizon=horizon)
+
+    def _smooth_frame(self, k: int, h: float) -> None:
+        t0 = self._t[k]
+        lo = int(np.searchsorted(self._t[: self._n], t0 - h - 1e-9))
+        hi = int(np.searchsorted(self._t[: self._n], t0 + h + 1e-9, side="right"))
+        sel = np.nonzero(self._valid[lo:hi])[0] + lo
+        val = _local_quadratic(self._t[sel], self._raw[sel].reshape(sel.size, -1), t0)
+        self._smooth[k] = self._raw[k] if val is None else val.reshape(2, 2, 3)
+
+    def _update_baseline(self, k: int) -> None:
+        self._baseline_age += 1
+        if self._baseline_age < 10 and np.all(np.isfinite(self._baseline)):
+            return
+        self._baseline_age = 0
+        lo = int(np.searchsorted(self._t[: self._n], self._t[k] - self.config.baseline_window_s))
+        z = self._raw[lo : k + 1, :, :, 2][self._valid[lo : k + 1]]
+        if z.shape[0]:
+            self._baseline = np.percentile(z, self.config.baseline_percentile, axis=0)
+
+    def _weights(self, k: int) -> FloatArray:
+        c = self.config
+        lift = self._smooth[k, :, :, 2] - self._baseline - c.plant_height_margin_m
+        return np.clip(1.0 - np.maximum(lift, 0.0) / c.plant_height_tol_m, 0.0, 1.0)
+
+    def _reset(self, *, t_from: float, t_to: float) -> None:
+        self._lost.append((t_from, t_to))
+        self._state = GaitState.INIT
+        self._anchor[:] = np.nan
+        self._pending_hs.clear()
+        for ps in self._pending_steps:  # close with what was seen before the gap
+            if ps.t_end is None:
+                ps.t_end = t_from
+        self._feet = [_FootHistory(), _FootHistory()]
+        self._footprint = [None, None]
+        self._o_sum[:] = 0
+        self._o_n[:] = 0
+        self._o_best = [None, None]
+
+    def _process(self, k: int) -> None:
+        c = self.config
+        kp = self._last_k
+        if kp is not None and self._t[k] - self._t[kp] > c.max_gap_s:
+            self._flush_pending(final=False, horizon=math.inf, before=self._t[kp] + 1e-9)
+            self._reset(t_from=float(self._t[kp]), t_to=float(self._t[k]))
+            kp = None
+        self._last_k = k
+        self._update_baseline(k)
+        w = self._weights(k)
+        self._weight[k] = w
+        if kp is None:
+            self._track[k] = self._smooth[k, :, :, :2]
+            self._ground[k] = 0.0
+            self._o_accumulate(k, w)
+            return
+        delta = self._smooth[k, :, :, :2] - self._smooth[kp, :, :, :2]  # (2, 2, 2)
+        wm = 0.5 * (w + self._weight[kp])
+        g = np.zeros((2, 2))
+        for f in range(2):
+            ws = wm[f].sum()
+            g[f] = (wm[f, :, None] * delta[f]).sum(axis=0) / ws if ws > 1e-3 else delta[f, _T]
+        self._track[k] = self._track[kp] + delta - g[::-1][:, None, :]
+        if self._state == GaitState.SWING_LEFT:
+            gg = g[Side.RIGHT]
+        elif self._state == GaitState.SWING_RIGHT:
+            gg = g[Side.LEFT]
+        else:
+            gg = g.mean(axis=0)
+        self._ground[k] = self._ground[kp] + gg
+        self._o_accumulate(k, w)
+        self._step_state(k)
+
+    # ------------------------------------------------------------------ state machine
+
+    def _rest_speed(self, k: int, foot: int, point: int) -> float:
+        """Mean horizontal speed (m/s) of a relative track over the rest window ending at k."""
+        c = self.config
+        t0 = self._t[k] - c.rest_window_s
+        j = int(np.searchsorted(self._t[:k], t0 - 1e-9))
+        idx = np.nonzero(self._valid[j : k + 1] & np.isfinite(self._track[j : k + 1, foot, point, 0]))[0] + j
+        if idx.size < 2 or self._t[k] - self._t[idx[0]] < 0.5 * c.rest_window_s:
+            return math.inf
+        d = self._track[k, foot, point] - self._track[idx[0], foot, point]
+        return float(np.hypot(*d) / (self._t[k] - self._t[idx[0]]))
+
+    def _advance_speed(self, k: int, foot: int, direction: FloatArray) -> float:
+        """Mean speed (m/s) of the heel track along ``direction`` over the rest window (may be < 0)."""
+        c = self.config
+        j = int(np.searchsorted(self._t[:k], self._t[k] - c.rest_window_s - 1e-9))
+        idx = np.nonzero(self._valid[j : k + 1] & np.isfinite(self._track[j : k + 1, foot, _H, 0]))[0] + j
+        if idx.size < 2 or self._t[k] - self._t[idx[0]] < 0.5 * c.rest_window_s:
+            return math.inf
+        d = self._track[k, foot, _H] - self._track[idx[0], foot, _H]
+        lateral = abs(d[0] * direction[1] - d[1] * direction[0])
+        along = float(d @ direction)
+        return max(along, lateral) / float(self._t[k] - self._t[idx[0]])
+
+    def _progression_dir(self) -> FloatArray:
+        """Unit line of progression in the walker frame (xy)."""
+        if self._strides:
+            v = np.sum(self._strides[-self.config.progression_strides :], axis=0)
+            n = np.hypot(*v)
+            if n > 1e-6:
+                v = v / n
+                if self._odo:  # strides are in the odometry world frame: back to walker frame
+                    yaw = self._walker_yaw(self._t[self._n - 1])
+                    v = _rot2(-yaw) @ v
+                return v
+        return np.array([-1.0, 0.0])
+
+    def _step_state(self, k: int) -> None:
+        c = self.config
+        t = float(self._t[k])
+        at_rest = np.array(
+            [[self._rest_speed(k, f, p) < c.rest_speed_mps for p in range(2)] for f in range(2)]
+        )
+        if self._state == GaitState.INIT:
+            if at_rest[0].any() and at_rest[1].any():
+                self._state = GaitState.DOUBLE_SUPPORT
+                self._anchor = self._track[k, :, _T].copy()
+            return
+        if self._state == GaitState.DOUBLE_SUPPORT:
+            u = self._progression_dir()
+            best, best_score = -1, -math.inf
+            for f in range(2):
+                if at_rest[f, _T] or not np.all(np.isfinite(self._anchor[f])):
+                    self._anchor[f] = self._track[k, f, _T]
+                    self._rest_time[f] = t
+                    continue
+                d = self._track[k, f, _T] - self._anchor[f]
+                dist = float(np.hypot(*d))
+                if dist < c.min_swing_distance_m:
+                    continue
+                lift = float(np.maximum(self._smooth[k, f, :, 2] - self._baseline[f], 0.0).sum())
+                score = float(d @ u) + lift
+                if score > best_score:
+                    best, best_score = f, score
+            if best >= 0 and best_score > 0:
+                self._start_swing(k, best)
+            return
+        # swing of foot a, b planted
+        a = 0 if self._state == GaitState.SWING_LEFT else 1
+        if t - self._swing_start_t > c.max_swing_time_s:
+            self._state = GaitState.INIT
+            return
+        moved = float(np.hypot(*(self._track[k, a, _H] - self._swing_heel_anchor)))
+        low = self._smooth[k, a, _H, 2] - self._baseline[a, _H] < c.hs_height_tol_m
+        sw_dir = self._track[k, a, _H] - self._swing_heel_anchor
+        sw_dir = sw_dir / max(float(np.hypot(*sw_dir)), 1e-9)
+        # landed = the heel no longer advances relative to the other foot; if the other foot
+        # already lifts off, the relative track moves *backwards*, which also counts as landed
+        if (
+            self._advance_speed(k, a, sw_dir) < c.rest_speed_mps
+            and moved >= c.min_swing_distance_m
+            and t - self._swing_to_t >= c.min_swing_time_s
+            and (low or at_rest[a, _T])
+        ):
+            d = self._track[k, a, _H] - self._swing_heel_anchor
+            self._pending_hs.append(
+                _PendingHS(side=a, k_det=k, t_det=t, t_to=self._swing_to_t, direction=d / max(np.hypot(*d), 1e-9))
+            )
+            self._state = GaitState.DOUBLE_SUPPORT
+            self._anchor = self._track[k, :, _T].copy()
+            self._rest_time[:] = t - c.rest_window_s
+            self._o_sum[a] = 0.0
+            self._o_n[a] = 0
+            self._o_best[a] = None
+
+    def _start_swing(self, k: int, a: int) -> None:
+        """Toe off of foot ``a`` confirmed at frame k: time it, emit it, enter swing."""
+        c = self.config
+        b = 1 - a
+        t_conf = float(self._t[k])
+        t_rest = float(self._rest_time[a])
+        lo_t = min(t_rest, t_conf) - c.event_fit_pre_s
+        idx = self._valid_range(lo_t, t_conf)
+        d = self._track[k, a, _T] - self._anchor[a]
+        u = d / max(float(np.hypot(*d)), 1e-9)
+        tt = self._t[idx]
+        rel = self._raw[idx, a, _T, :2] - self._raw[idx, b, _H, :2]
+        chans = [self._raw[idx, a, _T, 2], rel @ u]
+        t_to = _hinge_time(tt, chans, rising=True, tc_lo=lo_t, tc_hi=t_conf)
+        if not math.isfinite(t_to):
+            t_to = t_rest
+        conf = self._event_conf(t_to)
+        pos = self._cam_at(t_to, a, _T)
+        ev = GaitEvent(stamp=t_to, side=Side(a), kind=EventKind.TOE_OFF, position=pos, confidence=conf)
+        self._emit_event(ev)
+        self._feet[a].to.append(t_to)
+        for ps in self._pending_steps:  # opposite toe off closes the double support of a's step
+            if ps.t_end is None and ps.side == b:
+                ps.t_end = t_to
+        self._state = GaitState.SWING_LEFT if a == 0 else GaitState.SWING_RIGHT
+        self._swing_heel_anchor = self._anchor_heel(k, a, t_rest)
+        self._swing_start_t = t_conf
+        self._swing_to_t = t_to
+
+    def _anchor_heel(self, k: int, a: int, t_rest: float) -> FloatArray:
+        j = int(np.searchsorted(self._t[: k + 1], t_rest))
+        j = min(j, k)
+        while j > 0 and not np.isfinite(self._track[j, a, _H, 0]):
+            j -= 1
+        return self._track[j, a, _H].copy()
+
+    # ------------------------------------------------------------------ foot-flat offset
+
+    def _o_accumulate(self, k: int, w: FloatArray) -> None:
+        """Accumulate each stance foot's heel-minus-toe offset while it is flat."""
+        for f in range(2):
+            if self._state in (GaitState.SWING_LEFT, GaitState.SWING_RIGHT) and self._state - 2 == f:
+                continue
+            off = self._raw[k, f, _H, :2] - self._raw[k, f, _T, :2]
+            score = float(min(w[f, _H], w[f, _T]))
+            if score >= 0.7:
+                self._o_sum[f] += off
+                self._o_n[f] += 1
+            best = self._o_best[f]
+            if best is None or score > best[0]:
+                self._o_best[f] = (score, off.copy())
+
+    def _o_get(self, f: int) -> tuple[FloatArray | None, bool]:
+        if self._o_n[f] > 0:
+            return self._o_sum[f] / self._o_n[f], False
+        best = self._o_best[f]
+        return (None, True) if best is None else (best[1], True)
+
+    # ------------------------------------------------------------------ pending work
+
+    def _valid_range(self, t_lo: float, t_hi: float) -> NDArray[np.intp]:
+        lo = int(np.searchsorted(self._t[: self._n], t_lo - 1e-9))
+        hi = int(np.searchsorted(self._t[: self._n], t_hi + 1e-9, side="right"))
+        return np.nonzero(self._valid[lo:hi])[0] + lo
+
+    def _frame_period(self) -> float:
+        n = min(self._n, 60)
+        if n < 2:
+            return 1.0 / 30.0
+        return float(np.median(np.diff(self._t[self._n - n : self._n])))
+
+    def _slot_quality(self, t_lo: float, t_hi: float) -> float:
+        """Mean frame quality over [t_lo, t_hi], counting missing frames as 0."""
+        dt = self._frame_period()
+        lo = int(np.searchsorted(self._t[: self._n], t_lo - 1e-9))
+        hi = int(np.searchsorted(self._t[: self._n], t_hi + 1e-9, side="right"))
+        expected = max(1.0, (t_hi - t_lo) / dt + 1.0)
+        got = float(self._q[lo:hi].sum())
+        return float(min(1.0, got / max(expected, hi - lo)))
+
+    def _event_conf(self, t_e: float) -> float:
+        return self._slot_quality(t_e - 0.15, t_e + 0.15)
+
+    def _cam_at(self, t_e: float, f: int, p: int) -> FloatArray:
+        """Camera-frame position of a point at time t_e (linear interpolation of smoothed data)."""
+        idx = self._valid_range(t_e - 0.5, t_e + 0.5)
+        idx = idx[np.isfinite(self._smooth[idx, f, p, 0])]
+        if idx.size == 0:
+            return np.full(3, np.nan)
+        tt = self._t[idx]
+        j = int(np.clip(np.searchsorted(tt, t_e), 1, max(1, idx.size - 1)))
+        if idx.size == 1:
+            k = idx[0]
+            pw = self._smooth[k, f, p]
+        else:
+            k0, k1 = idx[j - 1], idx[j]
+            a = float(np.clip((t_e - self._t[k0]) / max(self._t[k1] - self._t[k0], 1e-9), 0.0, 1.0))
+            pw = (1 - a) * self._smooth[k0, f, p] + a * self._smooth[k1, f, p]
+            k = k0 if a < 0.5 else k1
+        rot, off = self._rot[k], self._off[k]
+        return rot.T @ (pw - off)
+
+    def _flush_pending(self, *, final: bool, horizon: float = math.inf, before: float | None = None) -> None:
+        c = self.config
+        t_avail = self._t[self._next_proc - 1] if self._next_proc > 0 else -math.inf
+        if final:
+            t_avail = math.inf
+        keep: list[_PendingHS] = []
+        for p in self._pending_hs:
+            if t_avail >= p.t_det + c.event_fit_post_s or before is not None or final:
+                self._finish_hs(p)
+            else:
+                keep.append(p)
+        self._pending_hs = keep
+        keep_s: list[_PendingStep] = []
+        for ps in self._pending_steps:
+            limit = ps.t_hs + c.double_support_max_s
+            if ps.t_end is not None or t_avail >= limit or final or before is not None:
+                if ps.t_end is None:
+                    ps.t_end = min(limit, t_avail if math.isfinite(t_avail) else limit)
+                self._finish_step(ps)
+            else:
+                keep_s.append(ps)
+        self._pending_steps = keep_s
+
+    def _finish_hs(self, p: _PendingHS) -> None:
+        c = self.config
+        a, b = p.side, 1 - p.side
+        lo_t = p.t_det - c.event_fit_pre_s
+        if math.isfinite(p.t_to):
+            lo_t = max(lo_t, p.t_to + 0.5 * (p.t_det - p.t_to))
+        hi_t = p.t_det + c.event_fit_post_s
+        idx = self._valid_range(lo_t, hi_t)
+        tt = self._t[idx]
+        rel = self._raw[idx, a, _H, :2] - self._raw[idx, b, _T, :2]
+        horiz = rel @ p.direction
+        # the other foot's toe is the horizontal reference only while it is planted: drop
+        # samples after the detection, after its toe off, or with the toe lifted
+        t_to_b = max((x for x in self._feet[b].to if x > lo_t), default=math.inf)
+        bad = (tt > p.t_det) | (tt >= t_to_b) | (self._weight[idx, b, _T] < 0.5)
+        horiz = np.where(bad, np.nan, horiz)
+        chans = [self._raw[idx, a, _H, 2], horiz]
+        tc_lo = max(lo_t, p.t_to if math.isfinite(p.t_to) else lo_t)
+        t_hs = _hinge_time(tt, chans, rising=False, tc_lo=tc_lo, tc_hi=p.t_det)
+        if not math.isfinite(t_hs):
+            t_hs = p.t_det - c.rest_window_s
+        conf = self._event_conf(t_hs)
+        pos = self._cam_at(t_hs, a, _H)
+        self._emit_event(GaitEvent(stamp=t_hs, side=Side(a), kind=EventKind.HEEL_STRIKE, position=pos, confidence=conf))
+        o_opp, fb = self._o_get(b)
+        self._pending_steps.append(_PendingStep(side=a, t_hs=t_hs, hs_conf=conf, o_opp=o_opp, o_fallback=fb))
+        # a toe off of b already confirmed after t_hs (possible with long latencies) closes it
+        if self._feet[b].to and self._feet[b].to[-1] > t_hs:
+            self._pending_steps[-1].t_end = self._feet[b].to[-1]
+        self._feet[a].hs.append(t_hs)
+
+    def _walker_yaw(self, t: float) -> float:
+        if not self._odo:
+            return 0.0
+        arr = np.asarray(self._odo)
+        yaw = np.unwrap(arr[:, 3])
+        return float(np.interp(t, arr[:, 0], yaw)) + self.config.odometry_base_yaw_rad
+
+    def _finish_step(self, ps: _PendingStep) -> None:
+        c = self.config
+        a, b = ps.side, 1 - ps.side
+        t_end = float(ps.t_end) if ps.t_end is not None else ps.t_hs + c.double_support_max_s
+        dt = self._frame_period()
+        idx = self._valid_range(ps.t_hs, max(ps.t_hs, t_end - 0.5 * dt))
+        fallback = ps.o_fallback
+        o = ps.o_opp
+        if o is None:
+            o = np.array([-0.0, 0.0])
+            fallback = True
+        if idx.size:
+            v = self._raw[idx, a, _H, :2] - self._raw[idx, b, _T, :2] - o
+            d = v.mean(axis=0)
+        else:  # no common frame: bridge with the integrated ground motion
+            fallback = True
+            ia = self._valid_range(ps.t_hs - 1.0, ps.t_hs)
+            ib = self._valid_range(ps.t_hs, ps.t_hs + 1.0)
+            if ia.size == 0 or ib.size == 0:
+                d = np.full(2, np.nan)
+            else:
+                ka, kb = ia[-1], ib[0]
+                d = (self._raw[kb, a, _H, :2] - self._ground[kb]) - (
+                    self._raw[ka, b, _T, :2] + o - self._ground[ka]
+                )
+        if self._odo:
+            d = _rot2(self._walker_yaw(ps.t_hs)) @ d
+        # footprint chain
+        fp_b = self._footprint[b]
+        if fp_b is None:
+            fp_b = np.zeros(2)
+            self._footprint[b] = fp_b
+        fp_a_new = fp_b + d
+        stride_vec = None
+        if self._footprint[a] is not None and np.all(np.isfinite(fp_a_new)):
+            stride_vec = fp_a_new - self._footprint[a]
+            if np.hypot(*stride_vec) > c.min_swing_distance_m:
+                self._strides.append(stride_vec)
+                self._strides = self._strides[-max(c.progression_strides, 1) :]
+        self._footprint[a] = fp_a_new
+        u = self._progression_dir()
+        if self._odo:
+            u = _rot2(self._walker_yaw(ps.t_hs)) @ u
+        step_length = float(d @ u)
+        step_width = float(abs(d[0] * u[1] - d[1] * u[0]))
+        stride_length = float(stride_vec @ u) if stride_vec is not None else float("nan")
+        # temporal parameters from the event history
+        t1 = ps.t_hs
+        hs_a = [t for t in self._feet[a].hs if t < t1 - 1e-9]
+        hs_b = [t for t in self._feet[b].hs if t < t1 - 1e-9]
+        to_a = self._feet[a].to
+        to_b = self._feet[b].to
+        t_b = hs_b[-1] if hs_b else None  # previous opposite heel strike
+        t_a0 = hs_a[-1] if hs_a else None  # previous same-side heel strike
+        step_time = t1 - t_b if t_b is not None else float("nan")
+        stride_time = t1 - t_a0 if t_a0 is not None else float("nan")
+        to_a_last = max((t for t in to_a if t < t1), default=None)
+        swing_time = t1 - to_a_last if to_a_last is not None and (t_a0 is None or to_a_last > t_a0) else float("nan")
+        stance = single = double = float("nan")
+        if t_a0 is not None and to_a_last is not None and t_a0 < to_a_last:
+            stance = to_a_last - t_a0
+            # opposite swing inside [t_a0, t1]
+            to_b_in = [t for t in to_b if t_a0 < t < t1]
+            if t_b is not None and to_b_in and t_a0 < to_b_in[-1] < t_b < to_a_last:
+                single = t_b - to_b_in[-1]
+                double = (to_b_in[-1] - t_a0) + (to_a_last - t_b)
+        slots = self._slot_quality(t_b if t_b is not None else t1 - 1.0, t_end)
+        conf = min(ps.hs_conf, slots)
+        if fallback:
+            conf *= 0.5
+        if not np.all(np.isfinite(d)):
+            conf = 0.0
+        step = Step(
+            stamp=t1,
+            side=Side(a),
+            index=len(self._steps),
+            step_length=step_length,
+            step_width=step_width,
+            step_time=float(step_time),
+            stride_length=stride_length,
+            stride_time=float(stride_time),
+            stance_time=float(stance),
+            swing_time=float(swing_time),
+            single_support_time=float(single),
+            double_support_time=float(double),
+            confidence=float(conf),
+        )
+        self._steps.append(step)
+        self._out_steps.append(step)
+
+    def _emit_event(self, ev: GaitEvent) -> None:
+        self._events.append(ev)
+        self._out_events.append(ev)
+
+    def _drain(self) -> tuple[list[GaitEvent], list[Step]]:
+        ev = sorted(self._out_events, key=lambda e: e.stamp)
+        st = sorted(self._out_steps, key=lambda s: s.stamp)
+        self._out_events, self._out_steps = [], []
+        return ev, st
+
+
+def _rot2(yaw: float) -> FloatArray:
+    c, s = math.cos(yaw), math.sin(yaw)
+    return np.array([[c, -s], [s, c]])
+
+
+# --------------------------------------------------------------------------------------
+# summary
+
+
+def _mean_sd_cv(values: list[float]) -> tuple[float, float, float]:
+    v = np.asarray([x for x in values if math.isfinite(x)], dtype=np.float64)
+    if v.size == 0:
+        return math.nan, math.nan, math.nan
+    mean = float(v.mean())
+    sd = float(v.std(ddof=1)) if v.size >= 2 else math.nan
+    cv = 100.0 * sd / abs(mean) if math.isfinite(sd) and abs(mean) > 1e-9 else math.nan
+    return mean, sd, cv
+
+
+def _ratio(a: float, b: float) -> float:
+    return a / b if math.isfinite(a) and math.isfinite(b) and abs(b) > 1e-9 else math.nan
+
+
+def summarize_steps(
+    steps: list[Step],
+    *,
+    scope: int = GaitSummaryData.SESSION,
+    window_duration: float = 0.0,
+    max_step_time_s: float = 2.5,
+    min_confidence: float = 0.0,
+) -> GaitSummaryData:
+    """Aggregate steps into a :class:`GaitSummaryData` (definitions in docs/GAIT_METRICS.md).
+
+    All steps count in ``step_count``/``duration``/``mean_confidence``; means use steps with
+    ``confidence >= min_confidence``; temporal statistics, cadence and speed additionally
+    skip steps whose ``step_time`` is unknown or above ``max_step_time_s`` (gait initiation
+    after a stop).  Cadence = 60 / mean step time; gait speed = sum of step lengths / sum of
+    step times over those walking steps; percentages are per-step ratios to the stride time.
+    """
+    nan = math.nan
+    n = len(steps)
+    good = [s for s in steps if s.confidence >= min_confidence]
+    walking = [s for s in good if math.isfinite(s.step_time) and 0 < s.step_time <= max_step_time_s]
+    duration = (steps[-1].stamp - steps[0].stamp) if n >= 2 else (0.0 if n else nan)
+    st_all = _mean_sd_cv([s.step_time for s in walking])[0]
+    cadence = 60.0 / st_all if math.isfinite(st_all) and st_all > 0 else nan
+    lens = [s.step_length for s in walking if math.isfinite(s.step_length)]
+    times = [s.step_time for s in walking if math.isfinite(s.step_length)]
+    speed = float(sum(lens) / sum(times)) if times and sum(times) > 0 else nan
+
+    def side(sd: int, attr: str, pool: list[Step]) -> tuple[float, float, float]:
+        return _mean_sd_cv([getattr(s, attr) for s in pool if int(s.side) == sd])
+
+    def pct(sd: int | None, attr: str) -> float:
+        vals = [
+            100.0 * getattr(s, attr) / s.stride_time
+            for s in walking
+            if (sd is None or int(s.side) == sd)
+            and math.isfinite(getattr(s, attr))
+            and math.isfinite(s.stride_time)
+            and 0 < s.stride_time <= 2 * max_step_time_s
+        ]
+        return float(np.mean(vals)) if vals else nan
+
+    sl = [side(i, "step_length", good) for i in range(2)]
+    sw = [side(i, "step_width", good) for i in range(2)]
+    stt = [side(i, "step_time", walking) for i in range(2)]
+    swing_mean = [side(i, "swing_time", walking)[0] for i in range(2)]
+    return GaitSummaryData(
+        stamp=steps[-1].stamp if n else nan,
+        scope=scope,
+        window_duration=float(window_duration),
+        duration=float(duration),
+        step_count=n,
+        cadence=float(cadence),
+        gait_speed=speed,
+        step_length_mean=_mean_sd_cv([s.step_length for s in good])[0],
+        step_width_mean=_mean_sd_cv([s.step_width for s in good])[0],
+        step_time_mean=float(st_all),
+        step_length_mean_side=(sl[0][0], sl[1][0]),
+        step_length_sd_side=(sl[0][1], sl[1][1]),
+        step_length_cv_side=(sl[0][2], sl[1][2]),
+        step_width_mean_side=(sw[0][0], sw[1][0]),
+        step_width_sd_side=(sw[0][1], sw[1][1]),
+        step_width_cv_side=(sw[0][2], sw[1][2]),
+        step_time_mean_side=(stt[0][0], stt[1][0]),
+        step_time_sd_side=(stt[0][1], stt[1][1]),
+        step_time_cv_side=(stt[0][2], stt[1][2]),
+        stance_percent_side=(pct(0, "stance_time"), pct(1, "stance_time")),
+        swing_percent_side=(pct(0, "swing_time"), pct(1, "swing_time")),
+        double_support_percent=pct(None, "double_support_time"),
+        step_length_symmetry=_ratio(sl[0][0], sl[1][0]),
+        swing_time_symmetry=_ratio(swing_mean[0], swing_mean[1]),
+        mean_confidence=float(np.mean([s.confidence for s in steps])) if n else nan,
+    )

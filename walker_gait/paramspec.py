@@ -1,0 +1,110 @@
+"""Every node's parameters, in one place: names, defaults, descriptions.
+
+Node-level parameters are listed here; the core config dataclasses contribute the rest
+(``floor_segmentation`` ← ``SegmenterConfig``, ``leg_tracker`` ← ``TrackerConfig`` of the chosen
+preset, ``gait_analyzer`` ← ``GaitConfig``).  ``python -m walker_gait.paramspec`` prints the
+README's parameter table; the test suite checks ``config/walker_gait.yaml`` against this spec.
+"""
+
+from __future__ import annotations
+
+import sys
+from typing import Any
+
+from walker_gait.config import ParameterError, build, describe
+
+NODE_PARAMS: dict[str, list[tuple[str, Any, str]]] = {
+    "depth_to_cloud": [
+        ("depth_format", "auto", "`auto`: 16UC1/mono16 millimetres, 32FC1 metres; `kinect_raw`: 16-bit raw Kinect "
+                                 "v1 disparity, metric depth by eq. (1) of the seed paper, 2047 = invalid"),
+        ("use_rectified", True, "true: intrinsics from P (rectified/registered depth); false: from K and D, and the "
+                                "image is undistorted (plumb_bob / rational_polynomial, OpenCV, nearest neighbour)"),
+    ],
+    "floor_segmentation": [
+        ("seed", 0, "seed of the RANSAC random generator (numpy Generator)"),
+    ],
+    "leg_tracker": [
+        ("preset", "default", "`default` (real time: partitioned + annealed sampling, low-res 2D cue) or `paper` "
+                              "(the seed's 5000 particles, full-res 2D cue); the fields below override the preset"),
+        ("mounting", "facing_user", "`facing_user`: camera looks back at the user, whose left leg is on the "
+                                    "image's right (+x); `facing_forward` flips left/right"),
+        ("use_rectified", True, "as depth_to_cloud.use_rectified (must match it)"),
+        ("seed", 0, "seed of the particle filter's random generator"),
+    ],
+    "gait_analyzer": [
+        ("summary_window", 10.0, "s, length of the rolling window of gait_summary/rolling"),
+        ("use_odometry", False, "subscribe to `odom` (nav_msgs/Odometry of the walker) for the line of progression"),
+    ],
+    "bag_replay": [
+        ("input", "", "recording to play (.mcap, rosbag2 folder, .db3, ROS 1 .bag); empty = idle"),
+        ("rate", 1.0, "playback rate multiplier"),
+        ("loop", False, "restart at the end"),
+        ("publish_clock", True, "publish /clock (rosgraph_msgs/Clock) with the recording's time"),
+        ("start_delay", 1.0, "s to wait after start so subscribers can connect"),
+    ],
+}
+
+
+def core_config(node: str, preset: str = "default") -> Any | None:
+    """Default core config object of ``node`` (None if it has none)."""
+    if node == "floor_segmentation":
+        from walker_gait.core.segmentation import SegmenterConfig
+
+        return SegmenterConfig()
+    if node == "leg_tracker":
+        from walker_gait.core.tracker import preset as tracker_preset
+
+        return tracker_preset(preset)
+    if node == "gait_analyzer":
+        from walker_gait.core.gait import GaitConfig
+
+        return GaitConfig()
+    return None
+
+
+def all_params(node: str) -> list[tuple[str, Any, str]]:
+    params = list(NODE_PARAMS[node])
+    cfg = core_config(node)
+    if cfg is not None:
+        params += list(describe(type(cfg)))
+        if node == "leg_tracker":  # defaults are the preset's, not the dataclass's
+            from walker_gait.config import flatten
+
+            values = flatten(cfg)
+            params = [(n, values.get(n, d), doc) for n, d, doc in params]
+    return params
+
+
+def validate_node_params(node: str, values: dict[str, Any]) -> None:
+    """Raise :class:`ParameterError` if ``values`` has unknown names or bad values for ``node``."""
+    if node not in NODE_PARAMS:
+        raise ParameterError(f"unknown node {node!r}; nodes: {', '.join(NODE_PARAMS)}")
+    own = {name for name, _, _ in NODE_PARAMS[node]}
+    rest = {k: v for k, v in values.items() if k not in own}
+    preset = str(values.get("preset", "default"))
+    cfg = core_config(node, preset)
+    if cfg is None:
+        if rest:
+            raise ParameterError(f"unknown {node} parameter(s): {sorted(rest)}")
+        return
+    build(type(cfg), rest, base=cfg)
+
+
+def _fmt(value: Any) -> str:
+    if isinstance(value, str):
+        return f"`{value!r}`" if value == "" else f"`{value}`"
+    if isinstance(value, bool):
+        return f"`{str(value).lower()}`"
+    return f"`{value}`"
+
+
+def markdown_table() -> str:
+    lines = ["| node | parameter | default | meaning |", "|---|---|---|---|"]
+    for node in NODE_PARAMS:
+        for name, default, doc in all_params(node):
+            lines.append(f"| {node} | `{name}` | {_fmt(default)} | {doc.replace('|', '/') } |")
+    return "\n".join(lines)
+
+
+if __name__ == "__main__":
+    sys.stdout.write(markdown_table() + "\n")

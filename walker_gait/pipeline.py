@@ -1,0 +1,459 @@
+"""Offline pipeline: a recording in, every stage in-process, result files out.
+
+The same core classes as the live nodes (``DepthProjector``, ``Segmenter``, ``LegTracker``,
+``GaitAnalyzer``) run frame by frame without building ROS messages in between; the results are
+also written as the messages the live nodes would publish (``tracked.mcap``).  Deterministic for
+a given seed.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import sys
+import time
+from collections import Counter
+from collections.abc import Iterator, Mapping
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from walker_gait import __version__
+from walker_gait.config import ParameterError, build
+from walker_gait.core.types import CameraIntrinsics, FloorPlane, GaitEvent, LegPose, Step
+
+#: ``process --param`` keys are ``<node>.<param>``; these are the nodes whose parameters apply offline.
+OFFLINE_NODES = ("depth_to_cloud", "floor_segmentation", "leg_tracker", "gait_analyzer")
+
+
+@dataclasses.dataclass(kw_only=True)
+class PipelineOptions:
+    """Everything that configures an offline run (built from the same YAML as the live nodes)."""
+
+    depth_format: str = "auto"
+    use_rectified: bool = True
+    segmenter: Any = None  # SegmenterConfig
+    tracker: Any = None  # TrackerConfig
+    gait: Any = None  # GaitConfig
+    preset: str = "default"
+    mounting: str = "facing_user"
+    summary_window: float = 10.0
+    seed: int = 0
+    depth_topic: str | None = None
+    info_topic: str | None = None
+    camera_info_file: str | None = None
+    write_mcap: bool = True
+    write_report: bool = True
+
+    def __post_init__(self) -> None:
+        from walker_gait.core.gait import GaitConfig
+        from walker_gait.core.segmentation import SegmenterConfig
+        from walker_gait.core.tracker import preset as tracker_preset
+
+        if self.segmenter is None:
+            self.segmenter = SegmenterConfig()
+        if self.tracker is None:
+            self.tracker = tracker_preset(self.preset)
+        if self.gait is None:
+            self.gait = GaitConfig()
+
+    @classmethod
+    def from_params(cls, file_params: Mapping[str, Mapping[str, Any]], overrides: Mapping[str, Any], *,
+                    preset: str | None = None, seed: int = 0, **kwargs: Any) -> PipelineOptions:
+        """Options from a parameters file (``{node: {param: value}}``) and ``node.param=value`` overrides."""
+        from walker_gait.core.gait import GaitConfig
+        from walker_gait.core.segmentation import SegmenterConfig
+        from walker_gait.core.tracker import PRESETS, preset as tracker_preset
+
+        per_node: dict[str, dict[str, Any]] = {n: dict(file_params.get(n, {})) for n in OFFLINE_NODES}
+        for n, values in file_params.items():
+            if n == "*":
+                for node in OFFLINE_NODES:
+                    per_node[node].update(values)
+        for key, value in overrides.items():
+            node, _, param = key.partition(".")
+            if node not in per_node or not param:
+                raise ParameterError(f"--param {key}: expected <node>.<param> with node one of {', '.join(OFFLINE_NODES)}")
+            per_node[node][param] = value
+        d2c = per_node["depth_to_cloud"]
+        seg = per_node["floor_segmentation"]
+        trk = per_node["leg_tracker"]
+        gait = per_node["gait_analyzer"]
+        preset_name = preset or str(trk.pop("preset", "default"))
+        trk.pop("preset", None)
+        if preset_name not in PRESETS:
+            raise ParameterError(f"unknown preset {preset_name!r}; presets: {', '.join(PRESETS)}")
+        mounting = str(trk.pop("mounting", "facing_user"))
+        trk_rect = trk.pop("use_rectified", None)
+        trk.pop("seed", None)
+        seg.pop("seed", None)
+        window = float(gait.pop("summary_window", 10.0))
+        gait.pop("use_odometry", None)
+        options = cls(
+            depth_format=str(d2c.pop("depth_format", "auto")),
+            use_rectified=bool(d2c.pop("use_rectified", True if trk_rect is None else trk_rect)),
+            segmenter=build(SegmenterConfig, seg),
+            tracker=build(type(tracker_preset(preset_name)), trk, base=tracker_preset(preset_name)),
+            gait=build(GaitConfig, gait),
+            preset=preset_name,
+            mounting=mounting,
+            summary_window=window,
+            seed=seed,
+            **kwargs,
+        )
+        unknown = set(d2c)
+        if unknown:
+            raise ParameterError(f"unknown depth_to_cloud parameter(s): {sorted(unknown)}")
+        return options
+
+
+@dataclasses.dataclass
+class FrameResult:
+    pose: LegPose
+    floor: FloorPlane
+    events: list[GaitEvent]
+    steps: list[Step]
+    n_foreground: int
+    timings_ms: dict[str, float]
+
+
+class FrameProcessor:
+    """All stages for one camera, frame by frame (the offline twin of the live node graph)."""
+
+    def __init__(self, options: PipelineOptions) -> None:
+        from walker_gait.core.depth import DepthProjector
+        from walker_gait.core.gait import GaitAnalyzer
+        from walker_gait.core.segmentation import Segmenter
+
+        self.options = options
+        rng = np.random.default_rng(options.seed)
+        seg_rng, trk_rng = rng.spawn(2)
+        self._trk_rng = trk_rng
+        self.projector = DepthProjector()
+        self.segmenter = Segmenter(options.segmenter, rng=seg_rng)
+        self.tracker: Any = None
+        self.analyzer = GaitAnalyzer(options.gait)
+        self.undistorter: Any = None
+        self.intrinsics: CameraIntrinsics | None = None
+        self._info_key: Any = None
+
+    def set_camera_info(self, info: Any) -> None:
+        """Apply a CameraInfo (``CameraInfoData`` or any object with width/height/k/d/p/distortion_model)."""
+        from walker_gait.core.depth import intrinsics_from_camera_info
+        from walker_gait.core.tracker import LegTracker
+
+        key = (info.width, info.height, tuple(info.k), tuple(info.d), tuple(info.p), info.distortion_model)
+        if key == self._info_key:
+            return
+        intr, undist = intrinsics_from_camera_info(width=info.width, height=info.height, k=info.k, d=info.d,
+                                                   p=info.p, distortion_model=info.distortion_model,
+                                                   rectified=self.options.use_rectified)
+        self._info_key = key
+        self.undistorter = undist
+        self.projector.set_intrinsics(intr)
+        if intr != self.intrinsics:
+            self.intrinsics = intr
+            self.tracker = LegTracker(self.options.tracker, intr, rng=self._trk_rng, mounting=self.options.mounting)
+
+    def process(self, *, stamp: float, data: Any, encoding: str, width: int, height: int, step: int,
+                is_bigendian: bool) -> FrameResult:
+        """Run every stage on one depth image (call :meth:`set_camera_info` first)."""
+        from walker_gait.core.depth import check_info_matches, decode_depth
+
+        if self.intrinsics is None or self.tracker is None:
+            raise MissingCalibration("no CameraInfo for this depth frame")
+        t0 = time.perf_counter()
+        check_info_matches(self.intrinsics, width=width, height=height)
+        depth = decode_depth(data, encoding=encoding, width=width, height=height, step=step,
+                             is_bigendian=is_bigendian, depth_format=self.options.depth_format)
+        if self.undistorter is not None:
+            depth = self.undistorter.apply(depth)
+        points = self.projector.points(depth)
+        t1 = time.perf_counter()
+        seg = self.segmenter.process(depth, points)
+        t2 = time.perf_counter()
+        pose = self.tracker.update(stamp=stamp, points=seg.points, depth_fg=seg.foreground_depth(depth),
+                                   floor=seg.floor)
+        t3 = time.perf_counter()
+        events, steps = self.analyzer.update(pose, seg.floor)
+        t4 = time.perf_counter()
+        timings = {"depth": (t1 - t0) * 1e3, "segmentation": (t2 - t1) * 1e3, "tracker": (t3 - t2) * 1e3,
+                   "gait": (t4 - t3) * 1e3}
+        return FrameResult(pose=pose, floor=seg.floor, events=list(events), steps=list(steps),
+                           n_foreground=len(seg.points), timings_ms=timings)
+
+    def finish(self) -> tuple[list[GaitEvent], list[Step]]:
+        events, steps = self.analyzer.finish()
+        return list(events), list(steps)
+
+
+class MissingCalibration(ValueError):
+    kind = "no_camera_info"
+
+
+@dataclasses.dataclass
+class ProcessResult:
+    input: Path
+    out_dir: Path
+    frames: int
+    skipped: dict[str, int]
+    steps: list[Step]
+    events: list[GaitEvent]
+    poses: list[LegPose]
+    summary: dict[str, Any]
+    wall_s: float
+    timings_ms: dict[str, float]
+    files: list[Path]
+
+    def describe(self) -> str:
+        lines = [f"{self.input}: {self.frames} frames in {self.wall_s:.1f} s "
+                 f"({self.frames / max(self.wall_s, 1e-9):.1f} frames/s), {len(self.steps)} steps"]
+        if self.skipped:
+            lines.append("skipped frames: " + ", ".join(f"{k} x{v}" for k, v in sorted(self.skipped.items())))
+        lines.append(format_steps_table(self.steps))
+        lines.append(format_summary(self.summary))
+        lines.append("outputs: " + ", ".join(str(p) for p in self.files))
+        return "\n".join(lines)
+
+
+def _summary_dict(analyzer_summary: Any) -> dict[str, Any]:
+    if hasattr(analyzer_summary, "to_dict"):
+        return dict(analyzer_summary.to_dict())
+    return dict(analyzer_summary)
+
+
+def format_steps_table(steps: list[Step], *, truth: list[Step] | None = None) -> str:
+    if not steps:
+        return "no steps detected"
+    head = f"{'#':>3} {'time s':>7} {'foot':<5} {'length cm':>9} {'width cm':>8} {'time s':>6}"
+    if truth is not None:
+        head += f"  {'true len':>8} {'true wid':>8}"
+    rows = [head]
+    for st in steps:
+        row = (f"{st.index:>3} {st.stamp:>7.2f} {st.side.label:<5} {st.step_length * 100:>9.1f} "
+               f"{st.step_width * 100:>8.1f} {st.step_time:>6.2f}")
+        if truth is not None:
+            match = min(truth, key=lambda t: abs(t.stamp - st.stamp) + (0 if t.side == st.side else 1e9),
+                        default=None)
+            if match is not None and abs(match.stamp - st.stamp) < 0.3 and match.side == st.side:
+                row += f"  {match.step_length * 100:>8.1f} {match.step_width * 100:>8.1f}"
+        rows.append(row)
+    return "\n".join(rows)
+
+
+def format_summary(summary: Mapping[str, Any]) -> str:
+    def f(key: str, scale: float = 1.0, fmt: str = "{:.1f}") -> str:
+        value = summary.get(key)
+        if value is None:
+            return "n/a"
+        try:
+            if isinstance(value, (list, tuple)):
+                return " / ".join("n/a" if v is None or not np.isfinite(v) else fmt.format(v * scale) for v in value)
+            return "n/a" if not np.isfinite(value) else fmt.format(value * scale)
+        except TypeError:
+            return str(value)
+
+    return (f"steps {summary.get('step_count', 0)}, cadence {f('cadence')} steps/min, speed "
+            f"{f('gait_speed', 1, '{:.2f}')} m/s, step length L/R {f('step_length_mean_side', 100)} cm, "
+            f"width L/R {f('step_width_mean_side', 100)} cm")
+
+
+def _progress(iterable: Any, *, total: int, enabled: bool, desc: str) -> Any:
+    if not enabled:
+        return iterable
+    from tqdm import tqdm
+
+    return tqdm(iterable, total=total, desc=desc, unit="frame", disable=not sys.stderr.isatty(), leave=False)
+
+
+def iter_recording_frames(recording: Any) -> Iterator[Any]:
+    yield from recording.iter_frames()
+
+
+def process_recording(path: Path, out_dir: Path, *, options: PipelineOptions | None = None,
+                      progress: bool = True, ground_truth: Mapping[str, Any] | None = None) -> ProcessResult:
+    """Process one recording; write steps/events/joints CSV, summary.json, tracked.mcap, report.html."""
+    from walker_gait.io.bags import open_recording
+    from walker_gait.io.outputs import write_events_csv, write_joints_csv, write_steps_csv, write_summary_json
+
+    options = options or PipelineOptions()
+    t_start = time.perf_counter()
+    recording = open_recording(path, depth_topic=options.depth_topic, info_topic=options.info_topic,
+                               camera_info_file=options.camera_info_file)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    proc = FrameProcessor(options)
+    poses: list[LegPose] = []
+    floors: list[FloorPlane] = []
+    events: list[GaitEvent] = []
+    steps: list[Step] = []
+    skipped: Counter[str] = Counter()
+    timing_sum: Counter[str] = Counter()
+    frame_headers: list[tuple[int, str]] = []
+    n_frames = 0
+    mcap_msgs: list[tuple[str, int, Any]] = []
+    from walker_gait.core.depth import CameraInfoError, DepthDecodeError
+
+    for frame in _progress(iter_recording_frames(recording), total=recording.frame_count, enabled=progress,
+                           desc=path.name):
+        n_frames += 1
+        try:
+            if frame.camera_info is None:
+                raise MissingCalibration(f"no CameraInfo for the frame at {frame.stamp:.3f} s")
+            proc.set_camera_info(frame.camera_info)
+            res = proc.process(stamp=frame.stamp, data=frame.data, encoding=frame.encoding, width=frame.width,
+                               height=frame.height, step=frame.step, is_bigendian=frame.is_bigendian)
+        except (DepthDecodeError, CameraInfoError, MissingCalibration) as exc:
+            kind = getattr(exc, "kind", None) or type(exc).__name__
+            if not skipped[kind]:
+                print(f"walker-gait: warning: {path}: frame at {frame.stamp:.3f} s skipped: {exc} "
+                      "(further frames skipped for this reason are only counted)", file=sys.stderr)
+            skipped[kind] += 1
+            continue
+        poses.append(res.pose)
+        floors.append(res.floor)
+        events.extend(res.events)
+        steps.extend(res.steps)
+        frame_headers.append((frame.stamp_ns, frame.frame_id))
+        timing_sum.update(res.timings_ms)
+        if options.write_mcap:
+            mcap_msgs.append(("frame", frame.stamp_ns, (frame.frame_id, res)))
+    tail_events, tail_steps = proc.finish()
+    events.extend(tail_events)
+    steps.extend(tail_steps)
+    summary = _summary_dict(proc.analyzer.summary(window_s=None))
+    processed = len(poses)
+    wall_s = time.perf_counter() - t_start
+    timings = {k: v / max(processed, 1) for k, v in timing_sum.items()}
+    metadata = {
+        "input": str(path),
+        "preset": options.preset,
+        "seed": options.seed,
+        "frames_total": n_frames,
+        "frames_processed": processed,
+        "frames_skipped": dict(skipped),
+        "walker_gait_version": __version__,
+        "processing_time_s": round(wall_s, 3),
+        "depth_topic": recording.depth_topic,
+        "info_topic": recording.info_topic,
+        "mean_stage_ms": {k: round(v, 3) for k, v in timings.items()},
+    }
+    files = []
+    files.append(out_dir / "steps.csv")
+    write_steps_csv(files[-1], steps)
+    files.append(out_dir / "events.csv")
+    write_events_csv(files[-1], events)
+    files.append(out_dir / "joints.csv")
+    write_joints_csv(files[-1], poses)
+    files.append(out_dir / "summary.json")
+    write_summary_json(files[-1], summary, metadata=metadata)
+    if options.write_mcap:
+        files.append(out_dir / "tracked.mcap")
+        write_tracked_mcap(files[-1], frames=[m[2] for m in mcap_msgs], stamps=[m[1] for m in mcap_msgs],
+                           events=events, steps=steps, summary=summary, summary_window=None,
+                           particle_count=int(getattr(options.tracker, "n_particles", 0)))
+    if options.write_report:
+        from walker_gait.report import write_report
+
+        files.append(out_dir / "report.html")
+        write_report(files[-1], steps=steps, events=events, poses=poses, summary=summary, metadata=metadata,
+                     ground_truth=dict(ground_truth) if ground_truth else None,
+                     floor=floors[-1] if floors else None)
+    if processed == 0:
+        from walker_gait.io.bags import RecordingError
+
+        raise RecordingError(f"{path}: no frame could be processed ({dict(skipped) or 'no depth frames'})")
+    return ProcessResult(input=path, out_dir=out_dir, frames=processed, skipped=dict(skipped), steps=steps,
+                         events=events, poses=poses, summary=summary, wall_s=time.perf_counter() - t_start,
+                         timings_ms=timings, files=files)
+
+
+def write_tracked_mcap(path: Path, *, frames: list[tuple[str, FrameResult]], stamps: list[int],
+                       events: list[GaitEvent], steps: list[Step], summary: Mapping[str, Any],
+                       summary_window: float | None, particle_count: int) -> None:
+    """The messages the live nodes would publish, as a rosbag2/MCAP (atomic; Foxglove-readable)."""
+    from walker_gait import messages as M
+    from walker_gait.io.bagwriter import BagWriter
+
+    topics = {
+        "/joint_states": M.JOINT_STATE, "/leg_track": M.LEG_TRACK, "/leg_markers": M.MARKER_ARRAY,
+        "/floor_plane": M.FLOOR_PLANE, "/gait_events": M.GAIT_EVENT, "/steps": M.STEP,
+        "/gait_summary": M.GAIT_SUMMARY,
+    }
+    with BagWriter(path, fmt="mcap", typestore=M.typestore(), overwrite=True) as bag:
+        for topic, typename in topics.items():
+            bag.add_topic(topic, typename)
+        stream: list[tuple[int, str, Any]] = []
+        for (frame_id, res), stamp_ns in zip(frames, stamps, strict=True):
+            header = M.make_header(M.make_time(stamp_ns, ns=True), frame_id)
+            stream.append((stamp_ns, "/joint_states", M.make_joint_state(res.pose, header)))
+            stream.append((stamp_ns, "/leg_track", M.make_leg_track(res.pose, header, particle_count=particle_count)))
+            stream.append((stamp_ns, "/leg_markers", M.make_markers(res.pose, header)))
+            stream.append((stamp_ns, "/floor_plane", M.make_floor_plane(res.floor, header)))
+        frame_id = frames[0][0] if frames else ""
+        for ev in events:
+            stream.append((round(ev.stamp * 1e9), "/gait_events", M.make_gait_event(ev, frame_id)))
+        for st in steps:
+            stream.append((round(st.stamp * 1e9), "/steps", M.make_step(st, frame_id)))
+        if stamps:
+            from walker_gait.io.outputs import summary_to_json  # noqa: F401  (keeps the mapping in one place)
+
+            stream.append((stamps[-1], "/gait_summary", M.make_gait_summary(
+                _msg_summary(summary), M.make_header(M.make_time(stamps[-1], ns=True), frame_id))))
+        stream.sort(key=lambda item: item[0])
+        for stamp_ns, topic, msg in stream:
+            bag.write(topic, max(stamp_ns, 0), msg)
+
+
+def _msg_summary(summary: Mapping[str, Any]) -> dict[str, Any]:
+    """GaitSummary field dict from the analyzer's summary dict (which uses the message's field names)."""
+    return {k: v for k, v in summary.items()}
+
+
+# ------------------------------------------------------------------------------------------ batch
+
+
+def _batch_one(args: tuple[str, str, PipelineOptions]) -> dict[str, Any]:
+    path, out, options = args
+    try:
+        res = process_recording(Path(path), Path(out), options=options, progress=False)
+    except Exception as exc:  # noqa: BLE001 - one bad recording must not stop the batch
+        return {"input": path, "status": "error", "error": f"{type(exc).__name__}: {exc}"}
+    row = {"input": path, "status": "ok", "frames": res.frames, "steps": len(res.steps)}
+    row.update({k: v for k, v in res.summary.items() if not isinstance(v, (list, tuple, dict))})
+    return row
+
+
+def process_batch(folder: Path, out_dir: Path, *, options: PipelineOptions, workers: int = 2,
+                  progress: bool = True) -> Path:
+    """Process every recording in ``folder`` (``workers`` processes); write ``summaries.csv`` + ``.json``."""
+    import csv
+
+    from walker_gait.io.bags import find_recordings
+    from walker_gait.io.outputs import atomic_write
+
+    recordings = find_recordings(folder)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    jobs = [(str(p), str(out_dir / p.stem), options) for p in recordings]
+    rows: list[dict[str, Any]] = []
+    with ProcessPoolExecutor(max_workers=max(1, workers)) as pool:
+        futures = [pool.submit(_batch_one, job) for job in jobs]
+        for fut in _progress(as_completed(futures), total=len(futures), enabled=progress, desc="batch"):
+            rows.append(fut.result())
+    rows.sort(key=lambda r: r["input"])
+    columns: list[str] = []
+    for r in rows:
+        columns.extend(k for k in r if k not in columns)
+    table = out_dir / "summaries.csv"
+    with atomic_write(table) as fh:
+        writer = csv.DictWriter(fh, fieldnames=columns)
+        writer.writeheader()
+        writer.writerows(rows)
+    with atomic_write(out_dir / "summaries.json") as fh:
+        json.dump(rows, fh, indent=2, default=str)
+    failed = [r for r in rows if r["status"] != "ok"]
+    if failed:
+        for r in failed:
+            print(f"walker-gait: error: {r['input']}: {r['error']}", file=sys.stderr)
+    return table
