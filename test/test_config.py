@@ -54,3 +54,12 @@ def test_parse_overrides_types_values() -> None:
         "leg_tracker.n_particles": 300, "gait_analyzer.use_odometry": True, "a.b": "x"}
     with pytest.raises(ParameterError, match="KEY=VALUE"):
         parse_overrides(["nonsense"])
+
+
+def test_readme_parameter_table_is_up_to_date(repo_root: Path) -> None:
+    import subprocess
+    import sys
+
+    res = subprocess.run([sys.executable, str(repo_root / "tools" / "update_readme.py"), "--check"],
+                         capture_output=True, text=True)
+    assert res.returncode == 0, res.stderr

@@ -67,6 +67,7 @@ __all__ = [
 ]
 
 _H, _T = 0, 1  # heel / toe index in the internal (2 feet, 2 points) arrays
+_HINGE_POWERS = (1.0, 1.5, 2.0, 3.0)
 
 
 class GaitInputError(ValueError):
@@ -259,7 +260,7 @@ def _hinge_time(
         lag = (tt[None, :] - grid[:, None]) if rising else (grid[:, None] - tt[None, :])
         base = np.maximum(lag, 0.0)
         best = np.full(grid.size, np.inf)
-        for p in (1.0, 1.5, 2.0, 3.0):
+        for p in _HINGE_POWERS:
             x = base**p
             sx = x.sum(axis=1)
             sxx = (x * x).sum(axis=1)
@@ -713,16 +714,25 @@ class GaitAnalyzer:
         """Toe off of foot ``a`` confirmed at frame k: time it, emit it, enter swing."""
         c = self.config
         b = 1 - a
+        # the other foot's heel strike must be final first (it bounds this toe off)
+        if any(p.side == b for p in self._pending_hs):
+            for p in [p for p in self._pending_hs if p.side == b]:
+                self._finish_hs(p)
+            self._pending_hs = [p for p in self._pending_hs if p.side != b]
         t_conf = float(self._t[k])
         t_rest = float(self._rest_time[a])
         lo_t = min(t_rest, t_conf) - c.event_fit_pre_s
+        t_hs_b = self._feet[b].hs[-1] if self._feet[b].hs else -math.inf
+        tc_lo = max(lo_t, t_hs_b) if t_hs_b < t_conf else lo_t
         idx = self._valid_range(lo_t, t_conf)
         d = self._track[k, a, _T] - self._anchor[a]
         u = d / max(float(np.hypot(*d)), 1e-9)
         tt = self._t[idx]
         rel = self._raw[idx, a, _T, :2] - self._raw[idx, b, _H, :2]
-        chans = [self._raw[idx, a, _T, 2], rel @ u]
-        t_to = _hinge_time(tt, chans, rising=True, tc_lo=lo_t, tc_hi=t_conf)
+        # the other foot's heel is the horizontal reference only once it is planted
+        horiz = np.where((tt < t_hs_b) | (self._weight[idx, b, _H] < 0.5), np.nan, rel @ u)
+        chans = [self._raw[idx, a, _T, 2], horiz]
+        t_to = _hinge_time(tt, chans, rising=True, tc_lo=tc_lo, tc_hi=t_conf)
         if not math.isfinite(t_to):
             t_to = t_rest
         conf = self._event_conf(t_to)
@@ -886,17 +896,14 @@ class GaitAnalyzer:
         if idx.size:
             v = self._raw[idx, a, _H, :2] - self._raw[idx, b, _T, :2] - o
             d = v.mean(axis=0)
-        else:  # no common frame: bridge with the integrated ground motion
+        else:  # no frame inside the double support (gap, or an extremely short one)
             fallback = True
-            ia = self._valid_range(ps.t_hs - 1.0, ps.t_hs)
-            ib = self._valid_range(ps.t_hs, ps.t_hs + 1.0)
-            if ia.size == 0 or ib.size == 0:
-                d = np.full(2, np.nan)
+            near = self._valid_range(ps.t_hs - 0.1, ps.t_hs + 0.1)
+            if near.size:
+                kn = near[int(np.argmin(np.abs(self._t[near] - ps.t_hs)))]
+                d = self._raw[kn, a, _H, :2] - self._raw[kn, b, _T, :2] - o
             else:
-                ka, kb = ia[-1], ib[0]
-                d = (self._raw[kb, a, _H, :2] - self._ground[kb]) - (
-                    self._raw[ka, b, _T, :2] + o - self._ground[ka]
-                )
+                d = np.full(2, np.nan)
         if self._odo:
             d = _rot2(self._walker_yaw(ps.t_hs)) @ d
         # footprint chain

@@ -600,9 +600,13 @@ class HmmConfig:
     cell_size: float = 0.05
     """Voxel edge (m)."""
     alpha: float = 0.01
+    """Transition probability O → E per frame (static structure disappears)."""
     beta: float = 0.1
+    """Transition probability E → M per frame (something appears)."""
     gamma: float = 0.4
+    """Transition probability M → E per frame (a moving object leaves)."""
     psi: float = math.exp(-38.0)
+    """Transition probability M → O per frame (a moved object settles; 003: e^-38)."""
     p_hit: float = 0.9
     """f(ε≈0): likelihood of an occupied state when the voxel holds foreground points."""
     p_free: float = 0.1
