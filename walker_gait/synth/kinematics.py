@@ -161,12 +161,13 @@ class Phase:
 
     ``kind``: ``"stand"`` (both feet planted for ``duration`` s), ``"walk"`` (walk for
     ``duration`` s then stop with a closing step; ``duration=inf`` walks to the end),
-    ``"approach"`` (walk ``distance`` m, then stop).
+    ``"approach"`` (walk ``distance`` m along ``heading``, then stop).
     """
 
     kind: str
     duration: float = float("inf")
     distance: float = 0.0
+    heading: float = 0.0  # approach: walking direction (rad, CCW from +X)
 
 
 @dataclass(kw_only=True)
@@ -241,6 +242,12 @@ def plan_footfalls(
     return feet
 
 
+def _path_coord(foot: FootPlan, heading: float, origin: tuple[float, float]) -> float:
+    """Coordinate of the foot's last heel along a path through ``origin`` with ``heading``."""
+    hx, hy = foot.heel[-1]
+    return (hx - origin[0]) * np.cos(heading) + (hy - origin[1]) * np.sin(heading)
+
+
 def _plan_bout(
     feet: tuple[FootPlan, FootPlan],
     ph: Phase,
@@ -258,9 +265,11 @@ def _plan_bout(
     other = 1 - s
     t_to = t0 + 0.25  # anticipatory postural adjustment before the first toe-off
     feet[s].to[-1] = t_to
+    heading = 0.0
     if ph.kind == "approach":
         n_steps = max(1, int(np.ceil(ph.distance / params.step_length)))
         sl_plan = ph.distance / n_steps
+        heading = ph.heading
     else:
         n_steps = 10**9
         sl_plan = params.step_length
@@ -268,6 +277,10 @@ def _plan_bout(
     prev_hs = None
     i = 0
     centre_y = 0.5 * (feet[0].heel[-1][1] + feet[1].heel[-1][1])
+    origin = (0.0, centre_y) if heading == 0.0 else (
+        0.5 * (feet[0].heel[-1][0] + feet[1].heel[-1][0]),
+        centre_y,
+    )
     while True:
         asym = _side_sign(s)
         st = st_mean * (1.0 + asym * params.asym_time) * (1.0 + params.step_time_cv * rng.standard_normal())
@@ -279,9 +292,11 @@ def _plan_bout(
             sl = sl_plan
         else:
             sl = sl_plan * factor * (1.0 + asym * params.asym_length) + params.step_length_sd * rng.standard_normal()
-        yaw = asym * params.toe_out + np.deg2rad(1.5) * rng.standard_normal()
-        x = feet[other].heel[-1][0] + sl
-        y = centre_y + asym * params.step_width / 2 + params.step_width_sd / np.sqrt(2) * rng.standard_normal()
+        yaw = heading + asym * params.toe_out + np.deg2rad(1.5) * rng.standard_normal()
+        along = _path_coord(feet[other], heading, origin) + sl
+        lat = asym * params.step_width / 2 + params.step_width_sd / np.sqrt(2) * rng.standard_normal()
+        x = origin[0] + along * np.cos(heading) - lat * np.sin(heading)
+        y = origin[1] + along * np.sin(heading) + lat * np.cos(heading)
         feet[s].hs.append(hs)
         feet[s].to.append(_BIG)
         feet[s].heel.append((x, y))
@@ -298,10 +313,17 @@ def _plan_bout(
             st_c = st_mean * (1.0 + 0.5 * params.step_time_cv * rng.standard_normal())
             hs_c = hs + st_c
             asym_o = _side_sign(other)
-            yaw_c = asym_o * params.toe_out + np.deg2rad(1.0) * rng.standard_normal()
+            yaw_c = heading + asym_o * params.toe_out + np.deg2rad(1.0) * rng.standard_normal()
+            along_c = _path_coord(feet[s], heading, origin) + 0.01 * rng.standard_normal()
+            lat_c = asym_o * params.step_width / 2
             feet[other].hs.append(hs_c)
             feet[other].to.append(_BIG)
-            feet[other].heel.append((x + 0.01 * rng.standard_normal(), centre_y + asym_o * params.step_width / 2))
+            feet[other].heel.append(
+                (
+                    origin[0] + along_c * np.cos(heading) - lat_c * np.sin(heading),
+                    origin[1] + along_c * np.sin(heading) + lat_c * np.cos(heading),
+                )
+            )
             feet[other].yaw.append(yaw_c)
             feet[other].bout.append(bout)
             return hs_c + 0.6
@@ -437,15 +459,18 @@ class GaitKinematics:
                 centre = 0.5 * (a + ao)
                 to_o = self.f[o]["to"][ko]
                 hs_o_next = self.f[o]["hs"][ko + 1] if ko + 1 < len(self.f[o]["hs"]) else _BIG
+                heading = self.f[side]["yaw"][k] - sgn * p.toe_out
                 if hs_arr[k] <= to_o < to_arr[k] and hs_o_next < _BIG / 2:
                     # mid stance of this foot = middle of the opposite foot's swing
                     tm = 0.5 * (to_o + hs_o_next)
                     y = centre[1] + p.pelvis_sway * (a[1] - centre[1])
                     # swing side drops: positive obliquity raises the left side
-                    knots.append((tm, a[0] + p.trunk_lean, y, 0.0, sgn * p.pelvis_obliquity))
+                    x = a[0] + p.trunk_lean * np.cos(heading)
+                    y += p.trunk_lean * np.sin(heading)
+                    knots.append((tm, x, y, heading, sgn * p.pelvis_obliquity))
                 if hs_arr[k] > -_BIG / 2:
                     # at heel strike this side's hip is forward (pelvic rotation)
-                    knots.append((hs_arr[k], nan, nan, -sgn * p.pelvis_rotation, 0.0))
+                    knots.append((hs_arr[k], nan, nan, heading - sgn * p.pelvis_rotation, 0.0))
         # stand-still: both feet planted for longer than 0.9 s
         fl, fr = self.f[0], self.f[1]
         for kl in range(len(fl["hs"])):
@@ -455,10 +480,11 @@ class GaitKinematics:
                 if hi - lo <= 0.9:
                     continue
                 c = 0.5 * (self._ankle_flat(0, kl) + self._ankle_flat(1, kr))
+                heading = 0.5 * (fl["yaw"][kl] + fr["yaw"][kr])
                 t_a = lo + 0.45 if lo > -_BIG / 2 else hi - 1.0e3
                 t_b = hi - 0.3 if hi < _BIG / 2 else lo + 1.0e3
                 for tk in (t_a, t_b):
-                    knots.append((tk, c[0], c[1], 0.0, 0.0))
+                    knots.append((tk, c[0], c[1], heading, 0.0))
         knots.sort()
         arr = np.array(knots, dtype=float)
         return arr[:, 0], arr[:, 1], arr[:, 2], arr[:, 3], arr[:, 4]

@@ -1,0 +1,108 @@
+"""`walker-gait` command line: outputs of `process`, and clear errors for bad input (exit 2, file named,
+no traceback)."""
+
+from __future__ import annotations
+
+import csv
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from walker_gait.io.outputs import EVENTS_COLUMNS, JOINTS_COLUMNS, STEPS_COLUMNS
+
+
+def walker_gait(*args: str, timeout: float = 120) -> subprocess.CompletedProcess[str]:
+    return subprocess.run([sys.executable, "-m", "walker_gait.cli", *args], capture_output=True, text=True,
+                          timeout=timeout)
+
+
+def test_process_real_bag_writes_every_output(real_bag: Path, tmp_path: Path) -> None:
+    out = tmp_path / "out"
+    res = walker_gait("process", str(real_bag), "--out", str(out), "--quiet")
+    assert res.returncode == 0, res.stderr
+    for name in ("steps.csv", "events.csv", "joints.csv", "summary.json", "tracked.mcap", "report.html"):
+        assert (out / name).is_file(), name
+    with open(out / "steps.csv", newline="") as fh:
+        assert tuple(next(csv.reader(fh))) == STEPS_COLUMNS
+    with open(out / "events.csv", newline="") as fh:
+        assert tuple(next(csv.reader(fh))) == EVENTS_COLUMNS
+    with open(out / "joints.csv", newline="") as fh:
+        rows = list(csv.reader(fh))
+    assert tuple(rows[0]) == JOINTS_COLUMNS
+    assert len(rows) == 2  # the bag has one depth frame
+    summary = json.loads((out / "summary.json").read_text())
+    assert "cadence_steps_per_min" in summary
+    assert summary["metadata"]["frames_processed"] == 1
+    assert summary["metadata"]["depth_topic"] == "/hero/head_rgbd_sensor/depth_registered/image"
+    assert not list(out.glob(".*tmp*")), "temporary files left behind"
+
+
+def test_tracked_mcap_reads_back_with_rosbags(real_bag: Path, tmp_path: Path) -> None:
+    from rosbags.highlevel import AnyReader
+
+    out = tmp_path / "out"
+    assert walker_gait("process", str(real_bag), "--out", str(out), "--quiet").returncode == 0
+    with AnyReader([out / "tracked.mcap"]) as reader:
+        topics = {c.topic: c.msgtype for c in reader.connections}
+        assert topics["/leg_track"] == "walker_gait_msgs/msg/LegTrack"
+        assert topics["/joint_states"] == "sensor_msgs/msg/JointState"
+        conns = [c for c in reader.connections if c.topic == "/leg_track"]
+        msgs = [reader.deserialize(raw, c.msgtype) for c, _, raw in reader.messages(connections=conns)]
+    assert len(msgs) == 1
+    assert msgs[0].header.frame_id
+
+
+@pytest.mark.parametrize("case", ["missing", "text", "random_bytes", "empty_file", "directory_without_bags"])
+def test_process_bad_input_exits_2_and_names_the_file(case: str, tmp_path: Path) -> None:
+    if case == "missing":
+        path = tmp_path / "nope.mcap"
+    elif case == "text":
+        path = tmp_path / "notes.txt"
+        path.write_text("not a recording\n")
+    elif case == "random_bytes":
+        path = tmp_path / "broken.mcap"
+        path.write_bytes(bytes(range(256)) * 50)
+    elif case == "empty_file":
+        path = tmp_path / "empty.bag"
+        path.write_bytes(b"")
+    else:
+        path = tmp_path / "folder"
+        path.mkdir()
+        (path / "readme.md").write_text("nothing here")
+    res = walker_gait("process", str(path), "--out", str(tmp_path / "out"), "--quiet")
+    assert res.returncode == 2, (res.stdout, res.stderr)
+    assert str(path.name) in res.stderr
+    assert "Traceback" not in res.stderr
+    assert not (tmp_path / "out" / "steps.csv").exists()
+
+
+def test_process_recording_without_depth_topic(tmp_path: Path) -> None:
+    import numpy as np
+
+    from walker_gait import messages as M
+    from walker_gait.io.bagwriter import BagWriter
+
+    path = tmp_path / "rgb_only.mcap"
+    with BagWriter(path, fmt="mcap") as bag:
+        bag.add_topic("/camera/rgb/image_raw", M.IMAGE)
+        img = M.make_image(np.zeros((4, 4, 3), np.uint8), M.make_header(1.0, "cam"), encoding="rgb8")
+        bag.write("/camera/rgb/image_raw", 1_000_000_000, img)
+    res = walker_gait("process", str(path), "--out", str(tmp_path / "out"), "--quiet")
+    assert res.returncode == 2
+    assert "rgb_only.mcap" in res.stderr and "depth" in res.stderr.lower()
+    assert "Traceback" not in res.stderr
+
+
+def test_unknown_param_is_a_user_error(real_bag: Path, tmp_path: Path) -> None:
+    res = walker_gait("process", str(real_bag), "--out", str(tmp_path / "o"), "--param", "leg_tracker.bogus=1")
+    assert res.returncode == 2
+    assert "bogus" in res.stderr and "Traceback" not in res.stderr
+
+
+def test_every_subcommand_has_help() -> None:
+    for sub in ("run", "replay", "process", "batch", "demo"):
+        res = walker_gait(sub, "--help")
+        assert res.returncode == 0 and "usage" in res.stdout.lower(), sub
