@@ -219,3 +219,17 @@ def parse_overrides(items: list[str]) -> dict[str, Any]:
         key, raw = item.split("=", 1)
         out[key.strip()] = yaml.safe_load(raw) if raw.strip() else ""
     return out
+
+
+STAGES = ("floor_segmentation", "leg_tracker")
+
+
+def stage_rng(seed: int, stage: str) -> Any:
+    """The random generator of one pipeline stage for a run seed.
+
+    The live nodes (one process per stage) and the offline pipeline derive their generators the same
+    way, so both see identical random streams for the same ``seed``.
+    """
+    import numpy as np
+
+    return np.random.default_rng([int(seed), STAGES.index(stage)])

@@ -128,11 +128,10 @@ class FrameProcessor:
         from walker_gait.core.segmentation import Segmenter
 
         self.options = options
-        rng = np.random.default_rng(options.seed)
-        seg_rng, trk_rng = rng.spawn(2)
-        self._trk_rng = trk_rng
+        from walker_gait.config import stage_rng
+
         self.projector = DepthProjector()
-        self.segmenter = Segmenter(options.segmenter, rng=seg_rng)
+        self.segmenter = Segmenter(options.segmenter, rng=stage_rng(options.seed, "floor_segmentation"))
         self.tracker: Any = None
         self.analyzer = GaitAnalyzer(options.gait)
         self.undistorter: Any = None
@@ -141,6 +140,7 @@ class FrameProcessor:
 
     def set_camera_info(self, info: Any) -> None:
         """Apply a CameraInfo (``CameraInfoData`` or any object with width/height/k/d/p/distortion_model)."""
+        from walker_gait.config import stage_rng
         from walker_gait.core.depth import intrinsics_from_camera_info
         from walker_gait.core.tracker import LegTracker
 
@@ -155,7 +155,8 @@ class FrameProcessor:
         self.projector.set_intrinsics(intr)
         if intr != self.intrinsics:
             self.intrinsics = intr
-            self.tracker = LegTracker(self.options.tracker, intr, rng=self._trk_rng, mounting=self.options.mounting)
+            self.tracker = LegTracker(self.options.tracker, intr, rng=stage_rng(self.options.seed, "leg_tracker"),
+                                      mounting=self.options.mounting)
 
     def process(self, *, stamp: float, data: Any, encoding: str, width: int, height: int, step: int,
                 is_bigendian: bool) -> FrameResult:

@@ -73,7 +73,8 @@ def to_camera(points_walker: np.ndarray, floor: FloorPlane) -> np.ndarray:
 def test_fit_floor_ransac_recovers_plane_with_legs_and_walker_in_view(height: float, pitch: float, roll: float) -> None:
     rng = np.random.default_rng(1)
     scene = make_synthetic_scene(camera_height=height, pitch_deg=pitch, roll_deg=roll)
-    assert (scene.labels == LABEL_LEG).sum() > 5000 and (scene.labels == LABEL_BAR).sum() > 500
+    assert (scene.labels == LABEL_LEG).sum() > 5000
+    assert pitch < 25 or (scene.labels == LABEL_BAR).sum() > 500  # walker bar in view (out of view at 22°)
     pts = PROJ.points(noisy_depth(scene, rng))
     plane = fit_floor_ransac(pts[::4, ::4].reshape(-1, 3), rng=rng)
     assert plane.valid
@@ -432,7 +433,7 @@ def test_real_xtion_frame_segments_without_error() -> None:
     for _ in range(3):
         res = seg.process(depth, pts)
         assert res.mask.shape == depth.shape and np.all(np.isfinite(res.points))
-        assert res.n_valid == int(np.isfinite(depth).sum())
+        assert res.n_valid == int(((depth >= 0.2) & (depth <= 8.0)).sum())
         # the floor is (almost) invisible in this recording (shiny floor, no depth); whatever is found
         # must be a plausible floor below the camera
         if res.floor.valid:

@@ -665,21 +665,20 @@ class GaitAnalyzer:
             return
         if self._state == GaitState.DOUBLE_SUPPORT:
             u = self._progression_dir()
-            best, best_score = -1, -math.inf
+            best, best_score, best_dist = -1, -math.inf, 0.0
             for f in range(2):
                 if at_rest[f, _T] or not np.all(np.isfinite(self._anchor[f])):
                     self._anchor[f] = self._track[k, f, _T]
                     self._rest_time[f] = t
                     continue
                 d = self._track[k, f, _T] - self._anchor[f]
-                dist = float(np.hypot(*d))
-                if dist < c.min_swing_distance_m:
-                    continue
-                lift = float(np.maximum(self._smooth[k, f, :, 2] - self._baseline[f], 0.0).sum())
-                score = float(d @ u) + lift
+                # forward motion relative to the other foot, plus toe lift (the stance foot's
+                # toe stays on the floor until its own toe off)
+                toe_lift = max(float(self._smooth[k, f, _T, 2] - self._baseline[f, _T]), 0.0)
+                score = float(d @ u) + toe_lift
                 if score > best_score:
-                    best, best_score = f, score
-            if best >= 0 and best_score > 0:
+                    best, best_score, best_dist = f, score, float(np.hypot(*d))
+            if best >= 0 and best_score > 0 and best_dist >= c.min_swing_distance_m:
                 self._start_swing(k, best)
             return
         # swing of foot a, b planted
@@ -795,9 +794,9 @@ class GaitAnalyzer:
         dt = self._frame_period()
         lo = int(np.searchsorted(self._t[: self._n], t_lo - 1e-9))
         hi = int(np.searchsorted(self._t[: self._n], t_hi + 1e-9, side="right"))
-        expected = max(1.0, (t_hi - t_lo) / dt + 1.0)
+        expected = max(1.0, round((t_hi - t_lo) / dt))
         got = float(self._q[lo:hi].sum())
-        return float(min(1.0, got / max(expected, hi - lo)))
+        return float(min(1.0, got / expected))
 
     def _event_conf(self, t_e: float) -> float:
         return self._slot_quality(t_e - 0.15, t_e + 0.15)

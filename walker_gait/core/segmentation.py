@@ -77,7 +77,8 @@ class FloorConfig:
     inlier_threshold: float = 0.012
     """Inlier band half-width at zero range (m)."""
     inlier_threshold_per_m2: float = 0.005
-    """Growth of the inlier band with squared range (m per m²); Kinect depth noise ~ 0.0014-0.003 z²."""
+    """Growth of the inlier band with squared range (m per m²), applied along the viewing ray and
+    projected on the plane normal; Kinect depth noise ~0.0014 z² plus eq. (1) quantisation 0.003 z² steps."""
     up_hint: tuple[float, float, float] = (0.0, -1.0, 0.0)
     """Approximate up direction in the camera optical frame (need not be unit length)."""
     max_tilt_deg: float = 70.0
@@ -136,9 +137,20 @@ def invalid_floor(config: FloorConfig | None = None) -> FloorPlane:
     return FloorPlane(normal=up / np.linalg.norm(up), offset=float("nan"), rms=float("nan"), inlier_ratio=0.0, valid=False)
 
 
-def _band(z: NDArray[np.floating], cfg: FloorConfig) -> NDArray[np.floating]:
-    """Distance-dependent inlier band half-width (m) for points at optical depth ``z``."""
-    return cfg.inlier_threshold + cfg.inlier_threshold_per_m2 * z * z
+def _noise_gain(pts: F64, cfg: FloorConfig) -> F64:
+    """``k z² / |p|`` per point: times ``|n·p|`` it is the depth noise projected on a plane normal (m)."""
+    z = pts[:, 2]
+    return cfg.inlier_threshold_per_m2 * z * z / np.maximum(np.linalg.norm(pts, axis=1), 1e-9)
+
+
+def _band(pts: F64, gain: F64, n: F64, d: float, cfg: FloorConfig) -> F64:
+    """Inlier band half-width (m) of each point for plane ``(n, d)``.
+
+    Depth noise acts along the viewing ray, so its component along the plane
+    normal is ``k z² |n·p̂|``; for the floor seen at a grazing angle this is much
+    smaller than the depth noise itself.
+    """
+    return cfg.inlier_threshold + gain * np.abs(pts @ n)
 
 
 def _usable(points: NDArray[np.floating], cfg: FloorConfig) -> F64:
@@ -175,8 +187,14 @@ def _plausible(n: F64, d: float, cfg: FloorConfig, up: F64) -> bool:
     return bool(n @ up >= cos_tilt and cfg.min_camera_height <= d <= cfg.max_camera_height)
 
 
-def _refine(pts: F64, band: F64, n: F64, d: float, cfg: FloorConfig, up: F64) -> tuple[F64, float, BoolArray] | None:
-    """Iterated least-squares refinement on the inliers of ``(n, d)``; None if it degenerates."""
+def _refine(
+    pts: F64, gain: F64, n: F64, d: float, cfg: FloorConfig, up: F64
+) -> tuple[F64, float, BoolArray, F64] | None:
+    """Iterated least-squares refinement on the inliers of ``(n, d)``; None if it degenerates.
+
+    Returns the plane, the inlier mask and the per-point band of the final plane.
+    """
+    band = _band(pts, gain, n, d, cfg)
     inl = np.abs(pts @ n + d) < band
     for _ in range(max(1, cfg.refine_iterations)):
         fit = _lsq_plane(pts[inl])
@@ -186,8 +204,9 @@ def _refine(pts: F64, band: F64, n: F64, d: float, cfg: FloorConfig, up: F64) ->
         if not _plausible(n_new, d_new, cfg, up):
             return None
         n, d = n_new, d_new
+        band = _band(pts, gain, n, d, cfg)
         inl = np.abs(pts @ n + d) < band
-    return n, d, inl
+    return n, d, inl, band
 
 
 def fit_floor_ransac(
@@ -220,14 +239,14 @@ def fit_floor_ransac(
     n_pts = pts.shape[0]
     if n_pts < max(3, cfg.min_inliers):
         return invalid_floor(cfg)
-    band_all = _band(pts[:, 2], cfg)
+    gain_all = _noise_gain(pts, cfg)
 
     # scoring subset
     if n_pts > cfg.ransac_max_points:
         sel = rng.choice(n_pts, size=cfg.ransac_max_points, replace=False)
-        spts, sband = pts[sel], band_all[sel]
+        spts, sgain = pts[sel], gain_all[sel]
     else:
-        spts, sband = pts, band_all
+        spts, sgain = pts, gain_all
     m = spts.shape[0]
 
     # vectorised hypotheses
@@ -249,10 +268,12 @@ def fit_floor_ransac(
         return invalid_floor(cfg)
     normals, offs = normals[plaus], offs[plaus]
 
-    heights = spts @ normals.T + offs  # (m, k) signed heights of the scoring points
-    inlier = np.abs(heights) < sband[:, None]
+    proj = spts @ normals.T  # (m, k) n·p
+    heights = proj + offs  # signed heights of the scoring points above each candidate
+    band = cfg.inlier_threshold + sgain[:, None] * np.abs(proj)
+    inlier = np.abs(heights) < band
     support = inlier.sum(axis=0)
-    below = (heights < -3.0 * sband[:, None]).sum(axis=0)
+    below = (heights < -3.0 * band).sum(axis=0)
     min_support = max(3, int(math.ceil(max(cfg.min_inliers * m / n_pts, cfg.min_inlier_fraction * m))))
     cand = (support >= min_support) & (below <= cfg.max_below_fraction * m)
     if not np.any(cand):
@@ -264,15 +285,15 @@ def fit_floor_ransac(
         if ref_inl.sum() < 3:
             break
         med_h = np.median(heights[ref_inl], axis=0)  # height of best's inliers above each candidate
-        lower = cand & (support >= cfg.lower_plane_support * support[best]) & (med_h > 2.0 * np.median(sband[ref_inl]))
+        lower = cand & (support >= cfg.lower_plane_support * support[best]) & (med_h > 2.0 * np.median(band[ref_inl], axis=0))
         if not np.any(lower):
             break
         best = int(np.argmax(np.where(lower, support, -1)))
 
-    refined = _refine(pts, band_all, normals[best], float(offs[best]), cfg, up)
+    refined = _refine(pts, gain_all, normals[best], float(offs[best]), cfg, up)
     if refined is None:
         return invalid_floor(cfg)
-    n, d, inl = refined
+    n, d, inl, band_all = refined
     n_inl = int(inl.sum())
     h = pts @ n + d
     n_below = int((h < -3.0 * band_all).sum())
@@ -335,10 +356,12 @@ class FloorTracker:
 
     def _check_set(self, points: NDArray[np.floating]) -> tuple[F64, F64]:
         pts = self._subsample(points, self.config.check_stride)
-        return pts, _band(pts[:, 2], self.config)
+        return pts, _noise_gain(pts, self.config)
 
-    def _stats(self, pts: F64, band: F64, n: F64, d: float) -> tuple[float, float, float, BoolArray]:
-        h = pts @ n + d
+    def _stats(self, pts: F64, gain: F64, n: F64, d: float) -> tuple[float, float, float, BoolArray]:
+        proj = pts @ n
+        h = proj + d
+        band = self.config.inlier_threshold + gain * np.abs(proj)
         near = np.abs(h) < band
         cnt = int(near.sum())
         support = cnt / max(1, pts.shape[0])
@@ -354,9 +377,9 @@ class FloorTracker:
             self.ransac_failures += 1
         return plane
 
-    def _adopt(self, plane: FloorPlane, pts: F64, band: F64) -> None:
+    def _adopt(self, plane: FloorPlane, pts: F64, gain: F64) -> None:
         self.plane = plane
-        support, _, rms, _ = self._stats(pts, band, plane.normal, plane.offset)
+        support, _, rms, _ = self._stats(pts, gain, plane.normal, plane.offset)
         self._ref_support = support
         self._ref_rms = max(rms, 1e-4)
 
@@ -391,12 +414,12 @@ class FloorTracker:
                 self._adopt(plane, *self._check_set(points))
             return self.plane
 
-        pts, band = self._check_set(points)
+        pts, gain = self._check_set(points)
         if pts.shape[0] < 3:
             self.floor_visible = False
             return self.plane
         n0, d0 = self.plane.normal, self.plane.offset
-        support, below, rms, near = self._stats(pts, band, n0, d0)
+        support, below, rms, near = self._stats(pts, gain, n0, d0)
         lost = (
             support < cfg.min_support_ratio * self._ref_support
             or below > cfg.max_below_fraction
@@ -412,12 +435,12 @@ class FloorTracker:
                 )
                 if close:
                     self._blend(plane.normal, plane.offset, plane.rms, plane.inlier_ratio)
-                    self._ref_support = self._stats(pts, band, self.plane.normal, self.plane.offset)[0]
+                    self._ref_support = self._stats(pts, gain, self.plane.normal, self.plane.offset)[0]
                     self._ref_rms = max(plane.rms, 1e-4)
                     self.floor_visible = True
                     return self.plane
                 if lost:  # the tracked plane is gone and a different plausible floor is there: jump
-                    self._adopt(plane, pts, band)
+                    self._adopt(plane, pts, gain)
                     self.resets += 1
                     self.floor_visible = True
                     return self.plane
@@ -642,7 +665,9 @@ class OccupancyHMM:
     Rows/cols of the state distribution are ordered (O, M, E).  Per frame:
     ``Q_t ∝ (Q_{t-1}ᵀ A) ⊙ [f, f, 1−f]`` (003), then MAP classification.  Foreground
     points in cells whose MAP state is O (static in the camera frame, e.g. the
-    walker's own frame) are dropped; moving legs stay M.  Note: a leg that stays
+    walker's own frame) are dropped; moving legs stay M.  The first update initialises
+    the grid (occupied cells static, others empty; 003 assumes a static scene at
+    start), so legs already in view then are static until they move.  Note: a leg that stays
     completely still for ~2-3 s (≈ 38 / ln((1−α)/(1−γ)) ≈ 76 frames) also becomes
     static — this is 003's design (moved furniture settles), hence off by default.
     """
@@ -720,6 +745,17 @@ class OccupancyHMM:
             ui, vi = u[ok].astype(np.intp), v[ok].astype(np.intp)
             eps[ok] = depth_m[vi, ui] - cam[ok, 2]
         f = self.observation(eps, hit)
+        if self.updates == 0:
+            # 003 assumes a static scene at initialisation: what is occupied in the first frame is
+            # static background (the walker's own frame), everything else starts empty.  (A uniform
+            # prior would leave O mass in cells hidden at start, which then turn static within a
+            # few frames as soon as a leg enters them.)
+            self.q = np.zeros_like(self.q)
+            self.q[hit, STATE_STATIC] = 1.0
+            self.q[~hit, STATE_EMPTY] = 1.0
+            self.states = np.argmax(self.q, axis=1).astype(np.int8)
+            self.updates += 1
+            return self.states
         pred = self.q @ self.transition
         pred[:, 0] *= f
         pred[:, 1] *= f

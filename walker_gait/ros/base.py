@@ -161,24 +161,35 @@ class _Guard:
 
 
 def spin_node(factory: Callable[[], WalkerNode], args: list[str] | None = None) -> int:
-    """Init rclpy, build the node, spin until Ctrl-C / SIGTERM, shut down cleanly; exit code 0."""
+    """Init rclpy, build the node, spin until Ctrl-C / SIGTERM, shut down cleanly; exit code 0.
+
+    rclpy's own signal handlers are disabled: they would shut the context down before the node's
+    ``close()`` could publish what it flushes at the end (e.g. gait_analyzer's last steps).
+    """
+    from rclpy.signals import SignalHandlerOptions
+
     argv = sys.argv if args is None else args
-    rclpy.init(args=argv)
+    rclpy.init(args=argv, signal_handler_options=SignalHandlerOptions.NO)
+    install_interrupt_handlers()
     node: WalkerNode | None = None
     code = 0
     try:
         node = factory()
-        rclpy.spin(node)
+        while rclpy.ok():
+            rclpy.spin_once(node, timeout_sec=0.1)
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
     except ParameterError:
         code = 2
     finally:
+        signal.signal(signal.SIGINT, signal.SIG_IGN)  # a second Ctrl-C must not interrupt the cleanup
+        signal.signal(signal.SIGTERM, signal.SIG_IGN)
         if node is not None:
             close = getattr(node, "close", None)
-            if close is not None:
+            if close is not None and rclpy.ok():
                 try:
-                    close()
+                    if close():
+                        time.sleep(0.3)  # let reliable subscribers fetch what close() published
                 except Exception as exc:  # noqa: BLE001 - a failing close must not hide the exit
                     print(f"{node.get_name()}: error while closing: {exc}", file=sys.stderr)
             node.destroy_node()
@@ -187,12 +198,13 @@ def spin_node(factory: Callable[[], WalkerNode], args: list[str] | None = None) 
     return code
 
 
-def install_sigterm_as_interrupt() -> None:
-    """Treat SIGTERM like Ctrl-C (for processes started by ``walker-gait run``)."""
+def install_interrupt_handlers() -> None:
+    """SIGINT and SIGTERM raise KeyboardInterrupt in the main thread (checked every spin timeout)."""
 
     def handler(signum: int, frame: Any) -> None:
         raise KeyboardInterrupt
 
+    signal.signal(signal.SIGINT, handler)
     signal.signal(signal.SIGTERM, handler)
 
 

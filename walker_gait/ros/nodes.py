@@ -22,6 +22,7 @@ from typing import Any
 import numpy as np
 
 from walker_gait import messages as M
+from walker_gait.config import stage_rng
 from walker_gait.ros.base import (
     EVENTS,
     LATCHED,
@@ -29,7 +30,6 @@ from walker_gait.ros.base import (
     STREAM,
     STREAM_IN,
     WalkerNode,
-    install_sigterm_as_interrupt,
     spin_node,
 )
 
@@ -105,7 +105,7 @@ class FloorSegmentationNode(WalkerNode):
 
         config = self.declare_config(SegmenterConfig)
         seed = int(self.declare_parameter("seed", 0).value)
-        self.segmenter = Segmenter(config, rng=np.random.default_rng(seed))
+        self.segmenter = Segmenter(config, rng=stage_rng(seed, "floor_segmentation"))
         self.pub_fg = self.raw_publisher(M.POINT_CLOUD2, "foreground/points", STREAM)
         self.pub_mask = self.raw_publisher(M.IMAGE, "foreground/mask", STREAM)
         self.pub_floor = self.raw_publisher(M.FLOOR_PLANE, "floor_plane", STREAM)
@@ -182,7 +182,7 @@ class LegTrackerNode(WalkerNode):
         if intr == self.intrinsics:
             return
         self.intrinsics = intr
-        self.tracker = LegTracker(self.config, intr, rng=np.random.default_rng(self.seed), mounting=self.mounting)
+        self.tracker = LegTracker(self.config, intr, rng=stage_rng(self.seed, "leg_tracker"), mounting=self.mounting)
 
     def on_part(self, name: str, msg: Any) -> None:
         complete = self.sync.add(name, msg)
@@ -262,10 +262,13 @@ class GaitAnalyzerNode(WalkerNode):
             self.pub_summary(M.make_gait_summary(self.analyzer.summary(window_s=None).to_dict(), header))
             self.pub_window(M.make_gait_summary(self.analyzer.summary(window_s=self.window_s).to_dict(), header))
 
-    def close(self) -> None:
+    def close(self) -> bool:
+        """Flush the analyzer at shutdown; True if something was published."""
         events, steps = self.analyzer.finish()
         if events or steps:
-            self.publish_results(events, steps, M.make_header(0.0, self.frame_id))
+            header = M.make_header(steps[-1].stamp if steps else events[-1].stamp, self.frame_id)
+            self.publish_results(events, steps, header)
+        return bool(events or steps)
 
 
 # ----------------------------------------------------------------------------------- bag_replay
@@ -293,17 +296,17 @@ class BagReplayNode(WalkerNode):
                                  start_delay=self.start_delay)
         self.replayer.start()
 
-    def close(self) -> None:
+    def close(self) -> bool:
         replayer = getattr(self, "replayer", None)
         if replayer is not None:
             replayer.stop()
+        return False
 
 
 # ------------------------------------------------------------------------------- entry points
 
 
 def _main(cls: type[WalkerNode]) -> int:
-    install_sigterm_as_interrupt()
     return spin_node(cls)
 
 

@@ -1,0 +1,130 @@
+"""Drive the live node graph with a recording and watch it from outside, like a dashboard would.
+
+``run_live(path)`` starts ``walker-gait run --replay PATH`` (one OS process per node, real DDS), subscribes
+to the depth input, ``joint_states``, ``steps`` and ``/diagnostics`` in this process, and reports what
+came out: the steps, the latency from a depth image's arrival to the arrival of the JointState with the
+same stamp, frames in vs out, and the frames the nodes reported as skipped.
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from walker_gait import messages as M
+
+
+@dataclass
+class LiveResult:
+    images: int = 0
+    joint_states: int = 0
+    steps: list[Any] = field(default_factory=list)
+    latencies_ms: list[float] = field(default_factory=list)
+    skipped: dict[str, int] = field(default_factory=dict)
+    run_exit_code: int | None = None
+    wall_s: float = 0.0
+
+    @property
+    def median_latency_ms(self) -> float:
+        return float(np.median(self.latencies_ms)) if self.latencies_ms else float("nan")
+
+    @property
+    def p95_latency_ms(self) -> float:
+        return float(np.percentile(self.latencies_ms, 95)) if self.latencies_ms else float("nan")
+
+    def latency_trend_ms_per_s(self) -> float:
+        """Slope of latency over the run: > 0 means a growing backlog."""
+        if len(self.latencies_ms) < 10:
+            return float("nan")
+        y = np.asarray(self.latencies_ms)
+        x = np.linspace(0, self.wall_s, len(y))
+        return float(np.polyfit(x, y, 1)[0])
+
+
+def run_live(path: Path, *, rate: float = 1.0, timeout_s: float = 120.0, settle_s: float = 3.0) -> LiveResult:
+    """Replay ``path`` through ``walker-gait run`` and collect what the graph publishes."""
+    import rclpy
+    from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+
+    from walker_gait.io.bags import open_recording
+    from walker_gait.ros.base import DIAGNOSTICS, EVENTS, rclpy_type
+
+    expected = open_recording(path).frame_count
+    result = LiveResult()
+    arrivals: dict[int, float] = {}
+    rclpy.init()
+    node = rclpy.create_node("walker_gait_live_probe")
+    best_effort = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=50, reliability=ReliabilityPolicy.BEST_EFFORT,
+                             durability=DurabilityPolicy.VOLATILE)
+
+    def on_image(data: bytes) -> None:
+        msg = M.deserialize(data, M.IMAGE)
+        arrivals[M.stamp_to_ns(msg.header.stamp)] = time.monotonic()
+        result.images += 1
+
+    def on_joints(data: bytes) -> None:
+        now = time.monotonic()
+        msg = M.deserialize(data, M.JOINT_STATE)
+        t_in = arrivals.pop(M.stamp_to_ns(msg.header.stamp), None)
+        result.joint_states += 1
+        if t_in is not None:
+            result.latencies_ms.append((now - t_in) * 1e3)
+
+    def on_diag(data: bytes) -> None:
+        msg = M.deserialize(data, M.DIAGNOSTIC_ARRAY)
+        for status in msg.status:
+            for kv in status.values:
+                if kv.key.startswith("skipped."):
+                    result.skipped[f"{status.name}:{kv.key[8:]}"] = int(kv.value)
+
+    node.create_subscription(rclpy_type(M.IMAGE), "/depth/image_raw", on_image, best_effort, raw=True)
+    node.create_subscription(rclpy_type(M.JOINT_STATE), "/joint_states", on_joints, best_effort, raw=True)
+    node.create_subscription(rclpy_type(M.STEP), "/steps",
+                             lambda d: result.steps.append(M.step_from_msg(M.deserialize(d, M.STEP))), EVENTS,
+                             raw=True)
+    node.create_subscription(rclpy_type(M.DIAGNOSTIC_ARRAY), "/diagnostics", on_diag, DIAGNOSTICS, raw=True)
+    cmd = [sys.executable, "-m", "walker_gait.cli", "run", "--replay", str(path), "--rate", str(rate)]
+    env = dict(os.environ, PYTHONUNBUFFERED="1")
+    t0 = time.monotonic()
+    run = subprocess.Popen(cmd, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
+                           start_new_session=True)
+    try:
+        deadline = t0 + timeout_s
+        last_progress = time.monotonic()
+        seen = 0
+        while time.monotonic() < deadline:
+            rclpy.spin_once(node, timeout_sec=0.05)
+            if result.joint_states != seen:
+                seen, last_progress = result.joint_states, time.monotonic()
+            if result.joint_states >= expected and time.monotonic() - last_progress > settle_s:
+                break
+            if result.images >= expected and time.monotonic() - last_progress > settle_s + 5:
+                break  # some frames never came out
+        result.wall_s = time.monotonic() - t0
+        # Ctrl-C the graph and keep listening: gait_analyzer flushes its last steps while it shuts down
+        run.send_signal(signal.SIGINT)
+        end = time.monotonic() + 30
+        while run.poll() is None and time.monotonic() < end:
+            rclpy.spin_once(node, timeout_sec=0.05)
+        end = time.monotonic() + 0.5
+        while time.monotonic() < end:
+            rclpy.spin_once(node, timeout_sec=0.05)
+    finally:
+        if run.poll() is None:
+            run.send_signal(signal.SIGINT)
+            try:
+                run.wait(timeout=30)
+            except subprocess.TimeoutExpired:
+                os.killpg(run.pid, signal.SIGKILL)
+        result.run_exit_code = run.wait()
+        node.destroy_node()
+        rclpy.shutdown()
+    return result
