@@ -22,6 +22,7 @@ NODE_PARAMS: dict[str, list[tuple[str, Any, str]]] = {
     ],
     "floor_segmentation": [
         ("seed", 0, "seed of the RANSAC random generator (numpy Generator)"),
+        ("use_rectified", True, "as depth_to_cloud.use_rectified (must match it)"),
     ],
     "leg_tracker": [
         ("preset", "default", "`default` (real time: partitioned + annealed sampling, low-res 2D cue) or `paper` "

@@ -89,6 +89,7 @@ class PipelineOptions:
         trk_rect = trk.pop("use_rectified", None)
         trk.pop("seed", None)
         seg.pop("seed", None)
+        seg.pop("use_rectified", None)
         window = float(gait.pop("summary_window", 10.0))
         gait.pop("use_odometry", None)
         options = cls(
@@ -153,6 +154,7 @@ class FrameProcessor:
         self._info_key = key
         self.undistorter = undist
         self.projector.set_intrinsics(intr)
+        self.segmenter.set_intrinsics(intr)
         if intr != self.intrinsics:
             self.intrinsics = intr
             self.tracker = LegTracker(self.options.tracker, intr, rng=stage_rng(self.options.seed, "leg_tracker"),

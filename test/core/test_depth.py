@@ -53,10 +53,11 @@ def test_decode_16bit_millimetres(encoding: str, big: bool, pad: int) -> None:
 @pytest.mark.parametrize("big", [False, True])
 @pytest.mark.parametrize("pad", [0, 1, 8])
 def test_decode_32fc1_metres_and_invalid(big: bool, pad: int) -> None:
-    m = np.array([[1.5, np.nan, np.inf, -np.inf], [0.0, -2.0, 3.25, 1e-3]], dtype=np.float32)
+    m = np.array([[1.5, np.nan, np.inf, -np.inf, 999.0], [0.0, -2.0, 3.25, 1e-3, 3e38]], dtype=np.float32)
     data, step = _pad_rows(m.astype(">f4" if big else "<f4"), pad)
-    out = decode_depth(data, encoding="32FC1", width=4, height=2, step=step, is_bigendian=big)
-    expected = np.array([[1.5, np.nan, np.nan, np.nan], [np.nan, np.nan, 3.25, 1e-3]], dtype=np.float32)
+    out = decode_depth(data, encoding="32FC1", width=5, height=2, step=step, is_bigendian=big)
+    # NaN, +-Inf, <= 0 and absurd (> MAX_DEPTH_M = 1 km) values are invalid
+    expected = np.array([[1.5, np.nan, np.nan, np.nan, 999.0], [np.nan, np.nan, 3.25, 1e-3, np.nan]], dtype=np.float32)
     np.testing.assert_array_equal(out, expected)
 
 
@@ -125,7 +126,9 @@ def test_kinect_equation_values() -> None:
     np.testing.assert_allclose(z[:3], 1.0 / (-0.00307 * raw[:3].astype(float) + 3.33), rtol=1e-6)
     assert np.all(np.isnan(z[3:]))  # 1084: 471 m (absurd); 1100+: eq. (1) negative; 2047: no reading
     data = raw.astype("<u2").tobytes()
-    out = decode_depth(data, encoding="16UC1", width=8, height=1, step=16, is_bigendian=False, depth_format="kinect_raw")
+    out = decode_depth(
+        data, encoding="16UC1", width=8, height=1, step=16, is_bigendian=False, depth_format="kinect_raw"
+    )
     np.testing.assert_array_equal(out[0], z)
     out_be = decode_depth(
         raw.astype(">u2").tobytes(), encoding="mono16", width=8, height=1, step=16, is_bigendian=True,
@@ -148,7 +151,10 @@ def test_kinect_round_trip() -> None:
     bad = metres_to_kinect_raw(np.array([np.nan, np.inf, -1.0, 0.0, 0.1, 50.0]))
     np.testing.assert_array_equal(bad, KINECT_INVALID)
     # float input to kinect_raw_to_metres
-    np.testing.assert_array_equal(kinect_raw_to_metres(np.array([500.0, -3.0, np.nan])), kinect_raw_to_metres(np.array([500, 2047, 2047], np.uint16)))
+    np.testing.assert_array_equal(
+        kinect_raw_to_metres(np.array([500.0, -3.0, np.nan])),
+        kinect_raw_to_metres(np.array([500, 2047, 2047], np.uint16)),
+    )
 
 
 # --------------------------------------------------------------------------- hypothesis: decode
@@ -219,19 +225,27 @@ D_STRONG = [-0.28, 0.09, 0.001, -0.002, 0.0]  # barrel distortion of a wide lens
 
 
 def test_intrinsics_rectified_uses_p() -> None:
-    intr, und = intrinsics_from_camera_info(width=640, height=480, k=K, d=D5, p=P, distortion_model="plumb_bob", rectified=True)
+    intr, und = intrinsics_from_camera_info(
+        width=640, height=480, k=K, d=D5, p=P, distortion_model="plumb_bob", rectified=True
+    )
     assert und is None
     assert (intr.fx, intr.fy, intr.cx, intr.cy) == (520.0, 521.0, 320.0, 240.0)
     # all-zero P falls back to K for rectified images
-    intr2, _ = intrinsics_from_camera_info(width=640, height=480, k=K, d=[], p=[0.0] * 12, distortion_model="", rectified=True)
+    intr2, _ = intrinsics_from_camera_info(
+        width=640, height=480, k=K, d=[], p=[0.0] * 12, distortion_model="", rectified=True
+    )
     assert (intr2.fx, intr2.fy, intr2.cx, intr2.cy) == (525.0, 526.0, 319.5, 239.5)
 
 
 def test_intrinsics_raw_uses_k_and_distortion() -> None:
-    intr, und = intrinsics_from_camera_info(width=640, height=480, k=K, d=D5, p=P, distortion_model="plumb_bob", rectified=False)
+    intr, und = intrinsics_from_camera_info(
+        width=640, height=480, k=K, d=D5, p=P, distortion_model="plumb_bob", rectified=False
+    )
     assert (intr.fx, intr.fy, intr.cx, intr.cy) == (525.0, 526.0, 319.5, 239.5)
     assert und is not None and (und.width, und.height) == (640, 480)
-    _, none = intrinsics_from_camera_info(width=640, height=480, k=K, d=[0.0] * 5, p=P, distortion_model="plumb_bob", rectified=False)
+    _, none = intrinsics_from_camera_info(
+        width=640, height=480, k=K, d=[0.0] * 5, p=P, distortion_model="plumb_bob", rectified=False
+    )
     assert none is None
     _, rp = intrinsics_from_camera_info(
         width=640, height=480, k=K, d=[0.1, -0.05, 0, 0, 0.01, 0.02, 0.0, 0.0], p=P,
@@ -256,7 +270,9 @@ def test_intrinsics_raw_uses_k_and_distortion() -> None:
     ],
 )
 def test_camera_info_errors(kwargs: dict[str, Any], match: str) -> None:
-    args: dict[str, Any] = {"width": 640, "height": 480, "k": K, "d": D5, "p": P, "distortion_model": "plumb_bob", "rectified": False}
+    args: dict[str, Any] = {
+        "width": 640, "height": 480, "k": K, "d": D5, "p": P, "distortion_model": "plumb_bob", "rectified": False,
+    }
     args.update(kwargs)
     with pytest.raises(CameraInfoError, match=match):
         intrinsics_from_camera_info(**args)
@@ -270,7 +286,9 @@ def test_check_info_matches() -> None:
 
 
 def test_undistortion_recovers_pinhole_image_without_blending() -> None:
-    intr, und = intrinsics_from_camera_info(width=640, height=480, k=K, d=D_STRONG, p=P, distortion_model="plumb_bob", rectified=False)
+    intr, und = intrinsics_from_camera_info(
+        width=640, height=480, k=K, d=D_STRONG, p=P, distortion_model="plumb_bob", rectified=False
+    )
     assert und is not None
     # ideal (pinhole) image whose value encodes its own pixel: 1 + u + 1000 v (exact in float32)
     vv, uu = np.mgrid[0:480, 0:640]

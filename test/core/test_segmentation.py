@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 import math
 from pathlib import Path
 
@@ -42,6 +43,15 @@ from walker_gait.core.segmentation import (
 from walker_gait.core.types import CameraIntrinsics, FloorPlane
 
 PROJ = DepthProjector(KINECT_INTRINSICS)
+QVGA = KINECT_INTRINSICS.scaled(0.5)
+
+
+@functools.lru_cache(maxsize=64)
+def scene_cached(legs: tuple[tuple[float, float], ...] | None = None, intrinsics: CameraIntrinsics = KINECT_INTRINSICS,
+                 **kw: float) -> SyntheticScene:
+    """Noise-free scenes repeat along the periodic gait: generate each once per test session."""
+    extra = {} if legs is None else {"legs": legs}
+    return make_synthetic_scene(intrinsics=intrinsics, **extra, **kw)  # type: ignore[arg-type]
 
 
 def noisy_depth(scene: SyntheticScene, rng: np.random.Generator, **noise: float) -> np.ndarray:
@@ -122,7 +132,7 @@ def test_floor_tracker_smooths_refits_rarely_and_follows_a_bump() -> None:
     rng = np.random.default_rng(4)
     tracker = FloorTracker(FloorConfig(), rng=rng)
     for i in range(30):
-        scene = make_synthetic_scene(camera_height=0.5, pitch_deg=30.0, legs=gait_legs(i))
+        scene = scene_cached(gait_legs(i), camera_height=0.5, pitch_deg=30.0)
         plane = tracker.update(PROJ.points(noisy_depth(scene, rng)))
         assert plane.valid and tracker.floor_visible
     assert tracker.ransac_runs <= 2  # not every frame
@@ -131,7 +141,7 @@ def test_floor_tracker_smooths_refits_rarely_and_follows_a_bump() -> None:
     # the walker hits a bump: camera pitch changes by 12 degrees, height by 3 cm
     runs = tracker.ransac_runs
     for i in range(6):
-        scene = make_synthetic_scene(camera_height=0.53, pitch_deg=42.0, legs=gait_legs(i))
+        scene = scene_cached(gait_legs(i), camera_height=0.53, pitch_deg=42.0)
         plane = tracker.update(PROJ.points(noisy_depth(scene, rng)))
     assert tracker.ransac_runs > runs
     assert angle_deg(plane.normal, scene.floor.normal) < 0.5 and abs(plane.offset - 0.53) < 0.005
@@ -147,14 +157,16 @@ def test_floor_tracker_smooths_refits_rarely_and_follows_a_bump() -> None:
 # --------------------------------------------------------------------------- segmenter (plane)
 
 
-def _quality(seg: Segmenter, n_frames: int, rng: np.random.Generator, **scene_kw: object) -> dict[str, float]:
+def _quality(seg: Segmenter, n_frames: int, rng: np.random.Generator, *, start: int = 0,
+             intrinsics: CameraIntrinsics = KINECT_INTRINSICS, **scene_kw: float) -> dict[str, float]:
     roi = seg.config.roi
+    proj = DepthProjector(intrinsics)
     tot = dict.fromkeys(("leg", "leg_kept", "floor", "floor_leak", "post", "post_kept", "bar", "bar_kept"), 0)
     res = None
-    for i in range(n_frames):
-        scene = make_synthetic_scene(legs=gait_legs(i), **scene_kw)  # type: ignore[arg-type]
+    for i in range(start, start + n_frames):
+        scene = scene_cached(gait_legs(i), intrinsics, **scene_kw)
         depth = noisy_depth(scene, rng)
-        res = seg.process(depth, PROJ.points(depth))
+        res = seg.process(depth, proj.points(depth))
         wk = scene.walker
         in_roi = (wk[..., 0] <= roi.forward) & (wk[..., 1] <= roi.left) & (wk[..., 1] >= -roi.right)
         valid = np.isfinite(depth)
@@ -280,25 +292,33 @@ def test_segmenter_learns_background_from_first_frames() -> None:
 
 def test_hmm_transition_matrix_and_states() -> None:
     cfg = HmmConfig()
-    assert (cfg.alpha, cfg.beta, cfg.gamma, cfg.psi) == (0.01, 0.1, 0.4, math.exp(-38))
+    assert (cfg.alpha, cfg.beta, cfg.gamma, cfg.psi, cfg.cell_size) == (0.01, 0.1, 0.4, math.exp(-38), 0.05)
     hmm = OccupancyHMM(cfg, RoiConfig())
     np.testing.assert_allclose(hmm.transition.sum(axis=1), 1.0)
     floor = camera_floor(camera_height=0.5, pitch_deg=30.0)
     static_pt = np.array([[0.5, 0.0, 0.3]] * 5)  # present from the start (walker structure)
     moving_pt = np.array([[1.0, 0.1, 0.3]] * 5)  # appears later (a leg)
     c_static, c_moving = hmm.cell_index(static_pt)[0], hmm.cell_index(moving_pt)[0]
-    assert hmm.cell_index(np.array([[5.0, 0.0, 0.0]]))[0] == -1
-    for _ in range(10):
-        hmm.update(points_walker=static_pt, floor=floor)
-    assert hmm.states[c_static] == STATE_STATIC
+    assert hmm.cell_index(np.array([[5.0, 0.0, 0.0], [np.nan, 0.0, 0.0]])).tolist() == [-1, -1]
+    both = np.concatenate([static_pt, moving_pt])
+    first_static = None
+    for k in range(120):
+        hmm.update(points_walker=static_pt if k < 40 else both, floor=floor)
+        if first_static is None and hmm.states[c_static] == STATE_STATIC:
+            first_static = k
+        if k == 70:  # the leg arrived 30 frames ago: moving
+            assert hmm.states[c_moving] == STATE_MOVING
+            assert hmm.static_points(moving_pt).sum() == 0
+    # psi = e^-38: something occupied for long enough (~76 frames) becomes static (003 Fig. 5)
+    assert first_static is not None and 60 <= first_static <= 100
+    assert hmm.states[c_moving] == STATE_STATIC and hmm.static_points(static_pt).all()
+    # 003's static-scene initialisation: occupied in the first frame = static at once
+    hmm0 = OccupancyHMM(HmmConfig(init_occupied_static=True), RoiConfig())
+    hmm0.update(points_walker=static_pt, floor=floor)
+    assert hmm0.states[c_static] == STATE_STATIC and hmm0.states[c_moving] == STATE_EMPTY
     for _ in range(30):
-        hmm.update(points_walker=np.concatenate([static_pt, moving_pt]), floor=floor)
-    assert hmm.states[c_moving] == STATE_MOVING and hmm.states[c_static] == STATE_STATIC
-    assert hmm.static_points(moving_pt).sum() == 0 and hmm.static_points(static_pt).all()
-    # psi = e^-38: a moving object that stays put long enough (~80+ frames) becomes static (003 Fig. 5)
-    for _ in range(120):
-        hmm.update(points_walker=np.concatenate([static_pt, moving_pt]), floor=floor)
-    assert hmm.states[c_moving] == STATE_STATIC
+        hmm0.update(points_walker=both, floor=floor)
+    assert hmm0.states[c_static] == STATE_STATIC and hmm0.states[c_moving] == STATE_MOVING
 
 
 def test_hmm_free_space_evidence_empties_cells() -> None:
@@ -319,13 +339,13 @@ def test_hmm_free_space_evidence_empties_cells() -> None:
 def test_segmenter_hmm_removes_static_walker_bar_keeps_moving_legs() -> None:
     rng = np.random.default_rng(10)
     cfg = SegmenterConfig(use_occupancy_hmm=True)
-    seg = Segmenter(cfg, rng=rng, intrinsics=KINECT_INTRINSICS)
-    _quality(seg, 30, rng)  # warm-up: one gait cycle
-    q = _quality(seg, 6, rng)
-    assert q["bar_kept"] < 0.1
-    assert q["leg_kept"] > 0.9
-    no_hmm = _quality(Segmenter(SegmenterConfig(), rng=rng), 2, rng)
-    assert no_hmm["bar_kept"] > 0.5  # without the HMM the bar (inside the ROI) is foreground
+    seg = Segmenter(cfg, rng=rng, intrinsics=QVGA)
+    early = _quality(seg, 30, rng, intrinsics=QVGA)
+    assert early["bar_kept"] > 0.5  # not yet recognised as static (psi: ~76 frames)
+    _quality(seg, 60, rng, start=30, intrinsics=QVGA)  # two more gait cycles
+    q = _quality(seg, 8, rng, start=90, intrinsics=QVGA)
+    assert q["bar_kept"] < 0.05  # the walker's cross-bar, static in the camera frame, is removed
+    assert q["leg_kept"] >= 0.98  # the moving legs are kept
 
 
 # --------------------------------------------------------------------------- robustness
@@ -338,7 +358,8 @@ def test_segmenter_degenerate_frames(shape: tuple[int, int], fill: float) -> Non
     depth = np.full(shape, fill, np.float32)
     pts = DepthProjector(intr).points(depth)
     for method in ("plane", "background"):
-        seg = Segmenter(SegmenterConfig(floor_method=method, background_frames=1), rng=np.random.default_rng(0), intrinsics=intr)
+        cfg = SegmenterConfig(floor_method=method, background_frames=1)
+        seg = Segmenter(cfg, rng=np.random.default_rng(0), intrinsics=intr)
         for _ in range(2):
             res = seg.process(depth, pts)
             assert res.mask.shape == shape and res.n_foreground == 0 and res.points.shape == (0, 3)
@@ -354,8 +375,11 @@ def test_segmenter_no_floor_visible_keeps_last_plane() -> None:
     assert res.status == "no_floor" and not res.floor.valid and not res.mask.any()
     scene = make_synthetic_scene()
     d = noisy_depth(scene, rng)
-    ok = seg.process(d, PROJ.points(d))
-    assert ok.status == "ok" and ok.floor.valid
+    # after a failed search RANSAC is retried every floor.retry_interval frames (speed)
+    results = [seg.process(d, PROJ.points(d)) for _ in range(seg.config.floor.retry_interval)]
+    assert results[0].status == "no_floor" and not results[0].floor_refit
+    ok = results[-1]
+    assert ok.status == "ok" and ok.floor.valid and ok.floor_refit
     res = seg.process(wall, PROJ.points(wall))
     assert res.floor.valid and not res.floor_visible and res.floor.offset == pytest.approx(ok.floor.offset)
     assert res.status == "ok"
@@ -380,7 +404,9 @@ _finite_or_not = st.one_of(
 
 @settings(max_examples=80, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(
-    depth=hnp.arrays(np.float32, hnp.array_shapes(min_dims=2, max_dims=2, min_side=1, max_side=24), elements=_finite_or_not),
+    depth=hnp.arrays(
+        np.float32, hnp.array_shapes(min_dims=2, max_dims=2, min_side=1, max_side=24), elements=_finite_or_not
+    ),
     seed=st.integers(0, 2**31 - 1),
     method=st.sampled_from(["plane", "background"]),
     hmm=st.booleans(),
@@ -406,7 +432,9 @@ def test_segmenter_never_raises_on_decoded_frames(depth: np.ndarray, seed: int, 
     height=st.floats(0.3, 0.8), pitch=st.floats(10.0, 60.0), roll=st.floats(-8.0, 8.0),
     dropout=st.floats(0.0, 0.9), seed=st.integers(0, 2**31 - 1),
 )
-def test_segmenter_never_raises_on_random_scenes(height: float, pitch: float, roll: float, dropout: float, seed: int) -> None:
+def test_segmenter_never_raises_on_random_scenes(
+    height: float, pitch: float, roll: float, dropout: float, seed: int
+) -> None:
     rng = np.random.default_rng(seed)
     intr = CameraIntrinsics(width=80, height=60, fx=65.6, fy=65.6, cx=39.5, cy=29.5)
     scene = make_synthetic_scene(intrinsics=intr, camera_height=height, pitch_deg=pitch, roll_deg=roll)
@@ -419,7 +447,8 @@ def test_segmenter_never_raises_on_random_scenes(height: float, pitch: float, ro
         assert res.floor.normal @ scene.floor.normal > 0.9  # never upside down / a wall
 
 
-def test_real_xtion_frame_segments_without_error() -> None:
+def test_real_xtion_frame_floor_and_person() -> None:
+    """Real HSR Xtion frame: a person standing ~2 m away, shiny floor mostly without depth."""
     from test.core.test_depth import _info_kwargs, read_real_bag  # noqa: PLC0415
 
     from walker_gait.core.depth import intrinsics_from_camera_info  # noqa: PLC0415
@@ -434,10 +463,24 @@ def test_real_xtion_frame_segments_without_error() -> None:
         res = seg.process(depth, pts)
         assert res.mask.shape == depth.shape and np.all(np.isfinite(res.points))
         assert res.n_valid == int(((depth >= 0.2) & (depth <= 8.0)).sum())
-        # the floor is (almost) invisible in this recording (shiny floor, no depth); whatever is found
-        # must be a plausible floor below the camera
-        if res.floor.valid:
-            assert res.floor.offset > 0.1 and res.floor.normal @ np.array([0.0, -1.0, 0.0]) > math.cos(math.radians(70))
+    # the floor is found from the little depth it has (around the shoes): a head camera ~0.8 m up,
+    # roughly level, and the person's feet stand on it
+    floor = res.floor
+    assert floor.valid and 0.5 < floor.offset < 1.2
+    assert floor.normal @ np.array([0.0, -1.0, 0.0]) > math.cos(math.radians(15))
+    feet = pts[440:470, 260:370].reshape(-1, 3)
+    feet = feet[np.isfinite(feet).all(axis=1)]
+    assert feet.shape[0] > 500 and abs(np.median(floor.height(feet))) < 0.05
+    body = pts[150:400, 280:340].reshape(-1, 3)
+    body_h = floor.height(body[np.isfinite(body).all(axis=1)])
+    assert 0.1 < np.percentile(body_h, 5) and np.percentile(body_h, 95) < 1.9
+    # nobody within the default 1.5 m ROI; with a 2.5 m deep ROI the person is the foreground
+    assert res.n_foreground == 0
+    wide = Segmenter(SegmenterConfig(roi=RoiConfig(forward=2.5, left=0.5, right=0.5)), rng=np.random.default_rng(0),
+                     intrinsics=intr).process(depth, pts)
+    vs, us = np.nonzero(wide.mask)
+    assert wide.n_foreground > 20000
+    assert 230 < np.percentile(us, 1) and np.percentile(us, 99) < 400  # the person's image columns
 
 
 def test_bench_smoke() -> None:

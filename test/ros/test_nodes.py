@@ -71,8 +71,21 @@ def test_depth_without_camera_info_is_skipped_then_processed(rclpy_context: None
         node.destroy_node()
 
 
-def test_bad_camera_info_is_rejected_and_counted(rclpy_context: None) -> None:
+class FakeLogger:
+    def __init__(self) -> None:
+        self.errors: list[str] = []
+
+    def error(self, text: str) -> None:
+        self.errors.append(text)
+
+    def warning(self, text: str) -> None:
+        pass
+
+
+def test_bad_camera_info_is_rejected_counted_and_logged_once(rclpy_context: None) -> None:
     node, published = make_depth_node()
+    logger = FakeLogger()
+    node.get_logger = lambda: logger
     try:
         bad = M.make_camera_info(INTR, M.make_header(1.0, "cam"))
         bad.k[0] = 0.0
@@ -80,6 +93,10 @@ def test_bad_camera_info_is_rejected_and_counted(rclpy_context: None) -> None:
         for _ in range(3):
             node.dispatch("depth/camera_info", M.CAMERA_INFO, node.on_info, M.serialize(bad))
         assert sum(node.problems.values()) == 3 and len(node.problems) == 1
+        assert len(logger.errors) == 1 and "focal" in logger.errors[0].lower()
+        for _ in range(2):  # a second kind of problem is logged once too
+            node.dispatch("depth/image_raw", M.IMAGE, node.on_image, b"junk")
+        assert len(logger.errors) == 2
         node.dispatch("depth/camera_info", M.CAMERA_INFO, node.on_info, info_bytes())
         node.dispatch("depth/image_raw", M.IMAGE, node.on_image, image_bytes(good_depth()))
         assert len(published) == 1

@@ -381,7 +381,16 @@ def evaluate_gait(gt_steps: list[Step], gt_events: list[GaitEvent], ga: GaitAnal
     det = ga.steps
     pairs, ug, ud = match_steps(gt_steps, det, max_dt=max_dt)
     n_tp = len(pairs)
-    prec = n_tp / len(det) if det else math.nan
+    # detections that are real heel strikes without a GT step (ground truths that, like
+    # GAITRite, give the first footfall of a bout no step) are reported, not counted as false
+    g_hs = [e for e in gt_events if e.kind == EventKind.HEEL_STRIKE]
+    gt_hs_t = np.array([e.stamp for e in g_hs])
+    gt_hs_s = np.array([int(e.side) for e in g_hs])
+    initiation = [j for j in ud if gt_hs_t.size and np.any(
+        (gt_hs_s == int(det[j].side)) & (np.abs(gt_hs_t - det[j].stamp) <= max_dt)
+        & ~np.isin(gt_hs_t, [s.stamp for s in gt_steps]))]
+    n_det = len(det) - len(initiation)
+    prec = n_tp / n_det if n_det else math.nan
     rec = n_tp / len(gt_steps) if gt_steps else math.nan
 
     def err(attr: str) -> FloatArray:
@@ -392,6 +401,7 @@ def evaluate_gait(gt_steps: list[Step], gt_events: list[GaitEvent], ga: GaitAnal
         "gt_steps": len(gt_steps),
         "det_steps": len(det),
         "matched": n_tp,
+        "det_initiation_steps": len(initiation),
         "precision": prec,
         "recall": rec,
     }
@@ -438,10 +448,9 @@ SCENARIOS: dict[str, GaitSimSpec] = {
 
 
 def synth_available() -> bool:
-    """Whether :mod:`walker_gait.synth` exposes ``generate_session`` with ground truth."""
+    """Whether :mod:`walker_gait.synth.session` (``generate_session`` + ground truth) imports."""
     try:
-        from walker_gait import synth  # noqa: F401
-        from walker_gait.synth import generate_session  # type: ignore[attr-defined]  # noqa: F401
+        from walker_gait.synth.session import SessionSpec, generate_session  # noqa: F401
     except Exception:  # noqa: BLE001 - any import problem means "not usable yet"
         return False
     return True
@@ -480,16 +489,28 @@ def run_gait_bench(*, scenarios: list[str] | tuple[str, ...] = ("normal", "slow"
 
 
 def _synth_session(name: str, *, rng: np.random.Generator, noise_m: float):  # type: ignore[no-untyped-def]
-    """Adapter to :mod:`walker_gait.synth` (ground-truth poses, steps, events)."""
-    if not synth_available():
-        raise RuntimeError("walker_gait.synth.generate_session is not available yet")
-    from walker_gait.synth import generate_session  # type: ignore[attr-defined]
-    from walker_gait.synth import SessionSpec  # type: ignore[attr-defined]
+    """Adapter to :mod:`walker_gait.synth.session`: ground-truth leg points (camera frame) of a
+    scenario preset as poses, its GT steps/events as :class:`Step`/:class:`GaitEvent`.
 
-    session = generate_session(SessionSpec(), rng=rng)  # scenario presets: see synth STATUS
-    poses = [replace(p, points=p.points + rng.normal(0.0, noise_m, p.points.shape)) if noise_m > 0 else p
-             for p in session.gt_poses]
-    return poses, session.floors, session.gt_steps, session.gt_events, session.fps
+    Uses the generator's exact leg points (no rendering, no tracker), optionally with iid noise.
+    """
+    if not synth_available():
+        raise RuntimeError("walker_gait.synth.session.generate_session is not importable")
+    from walker_gait.synth.session import SessionSpec, generate_session
+
+    session = generate_session(SessionSpec.preset(name), rng=rng)
+    pts = np.asarray(session.leg_points, dtype=np.float64)
+    if noise_m > 0:
+        pts = pts + rng.normal(0.0, noise_m, pts.shape)
+    poses = [LegPose(stamp=float(t), points=pts[i]) for i, t in enumerate(session.stamps)]
+    steps = [Step(stamp=g.stamp, side=Side(int(g.side)), index=g.index, step_length=g.step_length,
+                  step_width=g.step_width, step_time=g.step_time, stride_length=g.stride_length,
+                  stride_time=g.stride_time, stance_time=g.stance_time, swing_time=g.swing_time,
+                  single_support_time=g.single_support_time, double_support_time=g.double_support_time)
+             for g in session.steps]
+    events = [GaitEvent(stamp=e.stamp, side=Side(int(e.side)), kind=EventKind(int(e.kind)),
+                        position=np.asarray(e.position_world, dtype=np.float64)) for e in session.events]
+    return poses, session.floor, steps, events, float(session.spec.fps)
 
 
 def main(argv: list[str] | None = None) -> None:

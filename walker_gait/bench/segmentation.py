@@ -78,11 +78,11 @@ def make_synthetic_scene(
     floor = camera_floor(camera_height=camera_height, pitch_deg=pitch_deg, roll_deg=roll_deg)
     rot, _ = floor.walker_transform()
     w, h = intrinsics.width, intrinsics.height
-    u = (np.arange(w) - intrinsics.cx) / intrinsics.fx
-    v = (np.arange(h) - intrinsics.cy) / intrinsics.fy
-    rays = np.stack(np.broadcast_arrays(u[None, :], v[:, None], np.ones((1, 1))), axis=-1)  # (H, W, 3), z = 1
-    d = rays @ rot.T  # walker-frame direction per unit optical depth
-    ox, oy, oz = 0.0, 0.0, camera_height
+    u = ((np.arange(w) - intrinsics.cx) / intrinsics.fx)[None, :]
+    v = ((np.arange(h) - intrinsics.cy) / intrinsics.fy)[:, None]
+    # walker-frame ray direction per unit optical depth (a point at depth t is origin + t * d)
+    dx, dy, dz = (rot[k, 0] * u + rot[k, 1] * v + rot[k, 2] for k in range(3))
+    oz = camera_height
     best = np.full((h, w), np.inf)
     labels = np.zeros((h, w), dtype=np.uint8)
 
@@ -92,17 +92,16 @@ def make_synthetic_scene(
         labels[closer] = label
 
     with np.errstate(divide="ignore", invalid="ignore"):
-        take(np.where(d[..., 2] < 0, -oz / d[..., 2], np.inf), LABEL_FLOOR)
+        take(np.where(dz < 0, -oz / dz, np.inf), LABEL_FLOOR)
+        a_xy = dx * dx + dy * dy
 
         def vcyl(cx: float, cy: float, r: float, z0: float, z1: float) -> NDArray[np.float64]:
-            dx, dy = d[..., 0], d[..., 1]
-            px, py = ox - cx, oy - cy
-            a = dx * dx + dy * dy
-            b = 2 * (dx * px + dy * py)
-            c = px * px + py * py - r * r
-            disc = b * b - 4 * a * c
-            t = (-b - np.sqrt(disc)) / (2 * a)
-            zt = oz + t * d[..., 2]
+            # |(-cx, -cy) + t (dx, dy)|² = r², nearest root
+            b = -2.0 * (dx * cx + dy * cy)
+            c = cx * cx + cy * cy - r * r
+            disc = b * b - 4.0 * a_xy * c
+            t = (-b - np.sqrt(disc)) / (2.0 * a_xy)
+            zt = oz + t * dz
             return np.where((disc >= 0) & (zt >= z0) & (zt <= z1), t, np.inf)
 
         for lx, ly in legs:
@@ -111,24 +110,22 @@ def make_synthetic_scene(
             take(vcyl(px_, py_, post_radius, 0.0, camera_height), LABEL_POST)
         if bar is not None:
             bx, bz, br = bar
-            dx, dz = d[..., 0], d[..., 2]
-            px, pz = ox - bx, oz - bz
+            pz = oz - bz
             a = dx * dx + dz * dz
-            b = 2 * (dx * px + dz * pz)
-            c = px * px + pz * pz - br * br
-            disc = b * b - 4 * a * c
-            t = (-b - np.sqrt(disc)) / (2 * a)
-            yt = oy + t * d[..., 1]
-            take(np.where((disc >= 0) & (np.abs(yt) <= 0.35), t, np.inf), LABEL_BAR)
+            b = 2.0 * (-dx * bx + dz * pz)
+            c = bx * bx + pz * pz - br * br
+            disc = b * b - 4.0 * a * c
+            t = (-b - np.sqrt(disc)) / (2.0 * a)
+            take(np.where((disc >= 0) & (np.abs(t * dy) <= 0.35), t, np.inf), LABEL_BAR)
 
-    depth = np.where(np.isfinite(best) & (best < 20.0), best, np.nan)
+    depth = np.where(best < 20.0, best, np.nan)
     labels[np.isnan(depth)] = LABEL_NONE
-    walker = (rays * depth[..., None]) @ rot.T + np.array([0.0, 0.0, camera_height])
+    walker = np.stack([depth * dx, depth * dy, oz + depth * dz], axis=-1).astype(np.float32)
     return SyntheticScene(
         depth=depth.astype(np.float32),
         labels=labels,
-        height=walker[..., 2].astype(np.float32),
-        walker=walker.astype(np.float32),
+        height=walker[..., 2].copy(),
+        walker=walker,
         floor=floor,
         intrinsics=intrinsics,
     )
@@ -142,14 +139,22 @@ def add_kinect_noise(
     dropout: float = 0.02,
     edge_dropout: float = 0.5,
     edge_jump: float = 0.05,
+    radial_bias: float = 0.0,
 ) -> NDArray[np.uint16]:
     """Kinect-like raw 11-bit disparity image (uint16, 2047 = no reading) of a true depth image (m).
 
     Gaussian noise sigma = ``sigma_per_m2 * z²`` (m; Khoshelham & Elberink 2012: ~1.4 mm/m²),
     quantisation by eq. (1), random dropouts (fraction ``dropout``) and, with probability
-    ``edge_dropout``, dropouts of the farther pixel at depth jumps > ``edge_jump`` m (shadows).
+    ``edge_dropout``, dropouts of the farther pixel at depth jumps > ``edge_jump`` m (shadows), and
+    an optional systematic radial depth bias ``z *= 1 + radial_bias * r²`` (r = 1 at the image
+    corners), like the low-frequency distortion of uncalibrated structured-light sensors.
     """
     z = depth_m.astype(np.float64)
+    if radial_bias:
+        h, w = z.shape
+        yy, xx = np.mgrid[0:h, 0:w]
+        r2 = ((xx - (w - 1) / 2) ** 2 + (yy - (h - 1) / 2) ** 2) / (((w - 1) / 2) ** 2 + ((h - 1) / 2) ** 2)
+        z = z * (1.0 + radial_bias * r2)
     noisy = z + rng.standard_normal(z.shape) * sigma_per_m2 * z * z
     raw = metres_to_kinect_raw(noisy)
     drop = rng.random(z.shape) < dropout
@@ -177,17 +182,26 @@ def run_segmentation_bench(
     n_frames: int = 60,
     camera_height: float = 0.5,
     pitch_deg: float = 30.0,
+    roll_deg: float = 0.0,
+    noise_scale: float = 1.0,
+    dropout: float = 0.02,
+    radial_bias: float = 0.0,
     config: SegmenterConfig | None = None,
 ) -> dict[str, float | int | str]:
     """Measure speed and quality of decode + back-project + floor + ROI on synthetic 640x480 frames.
 
-    Each frame moves the legs along a simple gait cycle; the camera is rigid.  The input is the
+    Each frame moves the legs along a simple gait cycle; the camera is rigid.  ``noise_scale``
+    multiplies the Gaussian depth noise (1 = Kinect-like 1.4 mm/m²), ``dropout`` is the random
+    dropout fraction (plus shadow dropouts at depth edges), ``radial_bias`` a systematic radial depth
+    error (see :func:`add_kinect_noise`).  ``*_final_pct`` figures cover the last quarter of the frames
+    (after the occupancy HMM, if enabled, has settled).  The input is the
     noisy raw Kinect image as ``16UC1`` bytes decoded with ``depth_format="kinect_raw"``.
     Returned figures:
 
     * ``ms_median`` / ``ms_p90``: wall time per frame (decode + back-project + ``Segmenter.process``),
       first frame (initial RANSAC) excluded from the median; ``cpu_ms_median``: process CPU time (≈ wall on one core);
-      ``ms_median_16uc1``: same with a millimetre ``16UC1`` input;
+      ``ms_median_16uc1``: same with a millimetre ``16UC1`` input; ``ms_median_no_intrinsics``: kinect_raw
+      input, Segmenter built without intrinsics (walker coordinates by transforming the points);
     * ``floor_angle_err_deg_*`` / ``floor_height_err_mm_*``: tracked floor vs truth (median / max over frames),
       ``ransac_*``: single RANSAC run on the first frame;
     * ``leg_kept_pct``: leg pixels with valid depth, inside the ROI and true height >= min_height + 2 cm,
@@ -209,17 +223,21 @@ def run_segmentation_bench(
         times: list[float] = []
         cpu_times: list[float] = []
         times_mm: list[float] = []
+        times_noint: list[float] = []
         ang_err: list[float] = []
         h_err: list[float] = []
+        per_frame: list[tuple[int, int, int, int]] = []  # (leg, leg_kept, bar, bar_kept)
         tot = {"leg": 0, "leg_kept": 0, "leg_all": 0, "leg_all_kept": 0, "floor_roi": 0, "floor_leak": 0,
                "floor_all": 0, "bar": 0, "bar_kept": 0, "post": 0, "post_kept": 0}
         ransac_ang = ransac_h = float("nan")
         seg_mm = Segmenter(cfg, rng=np.random.default_rng(0), intrinsics=intr)
+        seg_noint = Segmenter(cfg, rng=np.random.default_rng(0))
         for i in range(n_frames):
             phase = 2 * math.pi * i / 30.0
             legs = ((0.85 + 0.2 * math.sin(phase), 0.09), (0.85 - 0.2 * math.sin(phase), -0.07))
-            scene = make_synthetic_scene(camera_height=camera_height, pitch_deg=pitch_deg, legs=legs)
-            raw = add_kinect_noise(scene.depth, rng=rng)
+            scene = make_synthetic_scene(camera_height=camera_height, pitch_deg=pitch_deg, roll_deg=roll_deg, legs=legs)
+            raw = add_kinect_noise(scene.depth, rng=rng, sigma_per_m2=0.0014 * noise_scale, dropout=dropout,
+                                   radial_bias=radial_bias)
             data = raw.astype("<u2").tobytes()
             mm = np.where(raw < 2047, np.rint(kinect_raw_to_metres(raw) * 1000), 0)
             data_mm = np.nan_to_num(mm).astype("<u2").tobytes()
@@ -233,6 +251,11 @@ def run_segmentation_bench(
             depth_mm = decode_depth(data_mm, encoding="16UC1", width=w, height=h, step=2 * w, is_bigendian=False)
             seg_mm.process(depth_mm, proj.points(depth_mm))
             times_mm.append(time.perf_counter() - t2)
+            t3 = time.perf_counter()
+            depth_k = decode_depth(data, encoding="16UC1", width=w, height=h, step=2 * w,
+                                   is_bigendian=False, depth_format="kinect_raw")
+            seg_noint.process(depth_k, proj.points(depth_k))
+            times_noint.append(time.perf_counter() - t3)
             times.append(t1 - t0)
             cpu_times.append(c1 - c0)
             if i == 0:
@@ -266,6 +289,7 @@ def run_segmentation_bench(
             tot["bar_kept"] += int((bar & m).sum())
             tot["post"] += int(post.sum())
             tot["post_kept"] += int((post & m).sum())
+            per_frame.append((int(leg.sum()), int((leg & m).sum()), int(bar.sum()), int((bar & m).sum())))
     finally:
         cv2.setNumThreads(cv_threads)
 
@@ -273,6 +297,9 @@ def run_segmentation_bench(
         return 100.0 * tot[a] / tot[b] if tot[b] else float("nan")
 
     warm = times[1:] if len(times) > 1 else times
+    last = np.asarray(per_frame[-max(1, n_frames // 4):], dtype=np.float64)
+    leg_final = 100.0 * last[:, 1].sum() / last[:, 0].sum() if last[:, 0].sum() else float("nan")
+    bar_final = 100.0 * last[:, 3].sum() / last[:, 2].sum() if last[:, 2].sum() else float("nan")
     return {
         "n_frames": n_frames,
         "image": f"{w}x{h}",
@@ -283,6 +310,7 @@ def run_segmentation_bench(
         "ms_p90": 1000 * float(np.percentile(warm, 90)),
         "cpu_ms_median": 1000 * float(np.median(cpu_times[1:] if len(cpu_times) > 1 else cpu_times)),
         "ms_median_16uc1": 1000 * float(np.median(times_mm[1:] if len(times_mm) > 1 else times_mm)),
+        "ms_median_no_intrinsics": 1000 * float(np.median(times_noint[1:] if len(times_noint) > 1 else times_noint)),
         "ransac_runs": seg.floor_tracker.ransac_runs,
         "ransac_angle_err_deg": ransac_ang,
         "ransac_height_err_mm": ransac_h,
@@ -296,16 +324,27 @@ def run_segmentation_bench(
         "floor_leak_pct": pct("floor_leak", "floor_roi"),
         "floor_leak_all_pct": pct("floor_leak", "floor_all"),
         "bar_kept_pct": pct("bar_kept", "bar"),
+        "leg_kept_final_pct": leg_final,
+        "bar_kept_final_pct": bar_final,
         "post_kept_pct": pct("post_kept", "post"),
     }
 
 
 def main() -> None:
-    """Print the benchmark figures (seeded)."""
-    res = run_segmentation_bench(rng=np.random.default_rng(12345))
-    width = max(len(k) for k in res)
-    for k, v in res.items():
-        print(f"{k:<{width}}  {v:.3f}" if isinstance(v, float) else f"{k:<{width}}  {v}")
+    """Print the benchmark figures (seeded) for three settings."""
+    runs = {
+        "kinect (h 0.5 m, pitch 30 deg)": {},
+        "stress (3x noise, 10% dropout, 1% radial depth bias, h 0.45 m, pitch 40 deg, roll 4 deg)": {
+            "noise_scale": 3.0, "dropout": 0.10, "radial_bias": 0.01, "camera_height": 0.45, "pitch_deg": 40.0,
+            "roll_deg": 4.0},
+        "kinect + occupancy HMM (120 frames)": {"config": SegmenterConfig(use_occupancy_hmm=True), "n_frames": 120},
+    }
+    for title, kw in runs.items():
+        res = run_segmentation_bench(rng=np.random.default_rng(12345), **kw)  # type: ignore[arg-type]
+        print(f"== {title}")
+        width = max(len(k) for k in res)
+        for k, v in res.items():
+            print(f"{k:<{width}}  {v:.3f}" if isinstance(v, float) else f"{k:<{width}}  {v}")
 
 
 if __name__ == "__main__":

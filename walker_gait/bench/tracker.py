@@ -129,7 +129,9 @@ def own_sequence(
     first 0.5 s); ``gap`` (user leaves for 0.5 s mid-sequence); ``one_leg_gap`` (the left leg
     vanishes for 0.4 s)."""
     floor = FloorPlane.from_camera_pose(height=camera_height, pitch=camera_pitch)
-    base = lm.neutral_state(right_hip_xy=(-0.85, -0.09), hip_dist=0.18)
+    # the user stands 0.85 m from the camera, on its optical-axis side
+    user_x = -0.85 if mounting == "facing_user" else 0.85
+    base = lm.neutral_state(right_hip_xy=(user_x, -0.09), hip_dist=0.18)
     base[L.SHAPE] = lm.MEAN_SHAPE * (1.0 + 0.05 * rng.standard_normal(5))
     frames: list[Frame] = []
     reappear: list[float] = []
@@ -165,48 +167,53 @@ def own_sequence(
     return Sequence(frames=frames, intrinsics=intrinsics, fps=fps, source="own-model", scenario=scenario, reappear_stamps=reappear)
 
 
-def _synth_sequence(scenario: str, *, rng: np.random.Generator, n_frames: int | None) -> Sequence | None:
-    """Sequence from the project's synthetic generator, or None when it is unavailable."""
+def _synth_sequence(
+    scenario: str, *, rng: np.random.Generator, n_frames: int | None, fps: float = 30.0
+) -> Sequence | None:
+    """Sequence from the project's generator (``walker_gait.synth``), or None when unavailable.
+
+    Foreground = oracle segmentation: pixels whose ideal material is a leg (skin, trousers,
+    shoe) in the generator's noisy depth, minus points < 3 cm above the floor (what the
+    segmentation stage delivers).
+    """
     try:
-        from walker_gait import synth  # noqa: F401
-        from walker_gait.synth import generate_session  # type: ignore[attr-defined]
+        from walker_gait.synth import body as sb
+        from walker_gait.synth.session import SessionSpec, generate_session
     except Exception:  # noqa: BLE001 - generator not ready: caller falls back
         return None
-    try:
-        from walker_gait.synth import SessionSpec  # type: ignore[attr-defined]
-
-        spec = SessionSpec.preset(scenario) if hasattr(SessionSpec, "preset") else SessionSpec(scenario=scenario)  # type: ignore[call-arg]
-        session = generate_session(spec, rng=rng)
-    except Exception:  # noqa: BLE001
-        return None
-    return _adapt_session(session, scenario=scenario, n_frames=n_frames)
-
-
-def _adapt_session(session: Any, *, scenario: str, n_frames: int | None) -> Sequence | None:
-    """Best-effort adapter from the generator's ``Session`` to :class:`Sequence`."""
-    try:
-        intr = session.intrinsics
-        frames = []
-        fps = float(getattr(session, "fps", 30.0))
-        for k, f in enumerate(session.frames):
-            if n_frames is not None and k >= n_frames:
-                break
-            depth = np.asarray(f.depth, dtype=np.float32)
-            floor = f.floor
-            gt = getattr(f, "gt_points", None)
-            if gt is None:
-                gt = getattr(f, "leg_points", None)
-            gt = None if gt is None or not np.all(np.isfinite(gt)) else np.asarray(gt, dtype=np.float64)
-            valid = np.isfinite(depth) & (depth > 0)
-            vv, uu = np.nonzero(valid)
-            pts = intr.backproject(uu.astype(float), vv.astype(float), depth[vv, uu].astype(float))
-            keep = floor.height(pts) > 0.03
-            fg = np.full(depth.shape, np.nan, np.float32)
-            fg[vv[keep], uu[keep]] = depth[vv[keep], uu[keep]]
-            frames.append(Frame(stamp=float(f.stamp), depth=fg, points=pts[keep].astype(np.float32), floor=floor, gt=gt))
-        return Sequence(frames=frames, intrinsics=intr, fps=fps, source="synth", scenario=scenario, reappear_stamps=[])
-    except Exception:  # noqa: BLE001
-        return None
+    duration = (n_frames if n_frames is not None else 300) / fps
+    spec = SessionSpec.preset(scenario, duration=duration, fps=fps)
+    session = generate_session(spec, rng=rng)
+    intr = session.intrinsics
+    floor = session.floor
+    leg_mats = np.array([sb.MAT_SKIN, sb.MAT_TROUSERS, sb.MAT_SHOE])
+    frames: list[Frame] = []
+    reappear: list[float] = []
+    was_absent = False
+    for i in range(len(session)):
+        rf = session.frame(i)
+        depth = np.asarray(session.depth_m(i), dtype=np.float32)
+        mask = np.isin(rf.material, leg_mats) & np.isfinite(depth) & (depth > 0)
+        vv, uu = np.nonzero(mask)
+        pts = intr.backproject(uu.astype(float), vv.astype(float), depth[vv, uu].astype(float))
+        keep = floor.height(pts) > 0.03
+        fg = np.full(depth.shape, np.nan, np.float32)
+        fg[vv[keep], uu[keep]] = depth[vv[keep], uu[keep]]
+        gt = np.asarray(session.leg_points[i], dtype=np.float64)
+        absent = int(keep.sum()) < 60
+        if was_absent and not absent:
+            reappear.append(float(session.stamps[i]))
+        was_absent = absent
+        frames.append(
+            Frame(
+                stamp=float(session.stamps[i]),
+                depth=fg,
+                points=pts[keep].astype(np.float32),
+                floor=floor,
+                gt=gt if (np.all(np.isfinite(gt)) and not absent) else None,
+            )
+        )
+    return Sequence(frames=frames, intrinsics=intr, fps=fps, source="synth", scenario=scenario, reappear_stamps=reappear)
 
 
 def evaluate(
@@ -219,14 +226,16 @@ def evaluate(
     per_frame_mean: list[float] = []
     swaps = 0
     times: list[float] = []
+    cpu: list[float] = []
     statuses: list[int] = []
     recovery: list[float] = []
     pending = list(seq.reappear_stamps)
     frames = seq.frames if max_frames is None else seq.frames[:max_frames]
     for fr in frames:
-        t0 = time.perf_counter()
+        t0, c0 = time.perf_counter(), time.process_time()
         pose = tracker.update(stamp=fr.stamp, points=fr.points, depth_fg=fr.depth, floor=fr.floor)
         times.append(time.perf_counter() - t0)
+        cpu.append(time.process_time() - c0)
         statuses.append(int(pose.status))
         if fr.gt is None or not np.all(np.isfinite(pose.points)):
             continue
@@ -251,6 +260,7 @@ def evaluate(
         "cue": cue,
         "n_frames": len(frames),
         "ms_per_frame": 1000.0 * float(np.mean(steady)),
+        "cpu_ms_per_frame": 1000.0 * float(np.mean(cpu[1:] if len(cpu) > 1 else cpu)),
         "ms_first_frame": 1000.0 * float(times[0]) if times else math.nan,
         "fps": 1.0 / float(np.mean(steady)),
         "mean_err_m": float(np.nanmean(err)),
@@ -284,7 +294,8 @@ def run_tracker_bench(
     for sc in scenarios:
         rng = np.random.default_rng(seed)
         seq = None
-        if source in ("auto", "synth"):
+        own_only = sc in ("gap", "one_leg_gap")  # own-model-only scenarios
+        if source in ("auto", "synth") and not own_only:
             seq = _synth_sequence(sc, rng=rng, n_frames=n_frames)
             if seq is None and source == "synth":
                 raise RuntimeError("walker_gait.synth generator not available")

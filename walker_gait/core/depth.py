@@ -28,6 +28,7 @@ __all__ = [
     "KINECT_INVALID",
     "KINECT_MAX_RANGE_M",
     "KINECT_MIN_RANGE_M",
+    "MAX_DEPTH_M",
     "SUPPORTED_ENCODINGS",
     "CameraInfoError",
     "DepthDecodeError",
@@ -61,6 +62,8 @@ KINECT_MIN_RANGE_M = 0.25
 """Raw values decoding nearer than this are treated as invalid (eq. (1) gives >= 0.300 m at d = 0)."""
 KINECT_MAX_RANGE_M = 10.0
 """Raw values decoding farther than this (d >= ~1053, where eq. (1) diverges) are invalid."""
+MAX_DEPTH_M = 1000.0
+"""32FC1 depths beyond this are treated as invalid (no depth sensor reports them; avoids overflow)."""
 
 
 def _kinect_lut() -> F32:
@@ -156,7 +159,7 @@ def decode_depth(
 
     * ``16UC1`` / ``mono16``: millimetres, ``0`` = invalid (``depth_format="auto"``),
       or raw Kinect disparity (``depth_format="kinect_raw"``, eq. (1), 2047 = invalid).
-    * ``32FC1``: metres; NaN, +-Inf and values ``<= 0`` are invalid.
+    * ``32FC1``: metres; NaN, +-Inf, values ``<= 0`` and absurd values ``> MAX_DEPTH_M`` are invalid.
 
     Returns a new C-contiguous float32 array (never a view of ``data``), NaN = invalid.
 
@@ -203,7 +206,7 @@ def decode_depth(
 
     if bpp == 4:
         out = raw.astype(np.float32)  # native-endian copy
-        bad = ~((out > 0) & (out < np.inf))  # NaN, <= 0 and +-Inf
+        bad = ~((out > 0) & (out <= MAX_DEPTH_M))  # NaN, <= 0, +-Inf and absurd values
         out[bad] = np.nan
         return out
     raw16 = raw if raw.dtype.isnative else raw.astype(np.uint16)
@@ -332,7 +335,10 @@ def intrinsics_from_camera_info(
     model = distortion_model.strip()
     lengths = _DISTORTION_LENGTHS.get(model)
     if lengths is None:
-        msg = f"unsupported distortion model {distortion_model!r} with non-zero D (expected plumb_bob or rational_polynomial)"
+        msg = (
+            f"unsupported distortion model {distortion_model!r} with non-zero D "
+            "(expected plumb_bob or rational_polynomial)"
+        )
         raise CameraInfoError(msg)
     if d_arr.size not in lengths:
         msg = f"distortion model {model!r} needs {' or '.join(map(str, lengths))} coefficients, got {d_arr.size}"
@@ -433,7 +439,8 @@ class DepthProjector:
         shape = (*self._rx.shape, 3)
         if out is None or out.shape != shape or out.dtype != np.float32:
             out = np.empty(shape, dtype=np.float32)
-        np.multiply(z, self._rx, out=out[..., 0])
-        np.multiply(z, self._ry, out=out[..., 1])
+        with np.errstate(over="ignore", invalid="ignore"):
+            np.multiply(z, self._rx, out=out[..., 0])
+            np.multiply(z, self._ry, out=out[..., 1])
         out[..., 2] = z
         return out

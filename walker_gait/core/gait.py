@@ -895,13 +895,12 @@ class GaitAnalyzer:
         if idx.size:
             v = self._raw[idx, a, _H, :2] - self._raw[idx, b, _T, :2] - o
             d = v.mean(axis=0)
-        else:  # no frame inside the double support (gap, or an extremely short one)
-            fallback = True
+        else:  # no frame inside the double support (very short one): nearest frame
             near = self._valid_range(ps.t_hs - 0.1, ps.t_hs + 0.1)
             if near.size:
                 kn = near[int(np.argmin(np.abs(self._t[near] - ps.t_hs)))]
                 d = self._raw[kn, a, _H, :2] - self._raw[kn, b, _T, :2] - o
-            else:
+            else:  # tracking gap around the heel strike
                 d = np.full(2, np.nan)
         if self._odo:
             d = _rot2(self._walker_yaw(ps.t_hs)) @ d

@@ -101,19 +101,25 @@ class FloorConfig:
     """Weight of each new measurement in the exponential smoothing of the tracked plane (0..1]."""
     refit_interval: int = 90
     """Re-run RANSAC at least every this many frames (frames)."""
+    retry_interval: int = 3
+    """After a failed RANSAC (no floor visible), wait this many frames before the next attempt (frames)."""
     min_support_ratio: float = 0.5
     """Re-run RANSAC when the near-plane fraction drops below this times its value at the last RANSAC."""
     max_rms_growth: float = 2.0
     """Re-run RANSAC when the residual RMS exceeds this times its value at the last RANSAC."""
     max_jump_deg: float = 8.0
-    """A re-fit within this angle (deg) of the tracked plane is smoothed in; larger changes are adopted only if the tracked plane lost support."""
+    """A re-fit within this angle (deg) of the tracked plane is smoothed in; larger changes are
+    adopted only if the tracked plane lost support."""
     max_jump_m: float = 0.08
     """Same for the plane offset (camera height, m)."""
 
     def validate(self) -> None:
         """Raise ``ValueError`` naming the first invalid field."""
         if self.sample_stride < 1 or self.check_stride < 1:
-            raise ValueError(f"floor.sample_stride and floor.check_stride must be >= 1, got {self.sample_stride}, {self.check_stride}")
+            raise ValueError(
+                "floor.sample_stride and floor.check_stride must be >= 1, "
+                f"got {self.sample_stride}, {self.check_stride}"
+            )
         if self.ransac_iterations < 1 or self.ransac_max_points < 3:
             raise ValueError("floor.ransac_iterations must be >= 1 and floor.ransac_max_points >= 3")
         if not (self.inlier_threshold > 0) or self.inlier_threshold_per_m2 < 0:
@@ -127,14 +133,19 @@ class FloorConfig:
             raise ValueError("floor.min_camera_height must be >= 0 and < floor.max_camera_height")
         if not (0 < self.smoothing <= 1):
             raise ValueError(f"floor.smoothing must be in (0, 1], got {self.smoothing}")
-        if self.refit_interval < 1:
-            raise ValueError(f"floor.refit_interval must be >= 1, got {self.refit_interval}")
+        if self.refit_interval < 1 or self.retry_interval < 1:
+            raise ValueError(
+                "floor.refit_interval and floor.retry_interval must be >= 1, "
+                f"got {self.refit_interval}, {self.retry_interval}"
+            )
 
 
 def invalid_floor(config: FloorConfig | None = None) -> FloorPlane:
     """Placeholder plane for "no floor found yet": ``valid=False``, normal = ``up_hint``, offset NaN."""
     up = np.asarray((config or FloorConfig()).up_hint, dtype=np.float64)
-    return FloorPlane(normal=up / np.linalg.norm(up), offset=float("nan"), rms=float("nan"), inlier_ratio=0.0, valid=False)
+    return FloorPlane(
+        normal=up / np.linalg.norm(up), offset=float("nan"), rms=float("nan"), inlier_ratio=0.0, valid=False
+    )
 
 
 def _noise_gain(pts: F64, cfg: FloorConfig) -> F64:
@@ -285,7 +296,11 @@ def fit_floor_ransac(
         if ref_inl.sum() < 3:
             break
         med_h = np.median(heights[ref_inl], axis=0)  # height of best's inliers above each candidate
-        lower = cand & (support >= cfg.lower_plane_support * support[best]) & (med_h > 2.0 * np.median(band[ref_inl], axis=0))
+        lower = (
+            cand
+            & (support >= cfg.lower_plane_support * support[best])
+            & (med_h > 2.0 * np.median(band[ref_inl], axis=0))
+        )
         if not np.any(lower):
             break
         best = int(np.argmax(np.where(lower, support, -1)))
@@ -338,6 +353,7 @@ class FloorTracker:
         self.floor_visible = False
         self.refit_this_frame = False
         self._since_ransac = 0
+        self._since_failure = 10**9
         self._ref_support = 0.0
         self._ref_rms = 0.0
 
@@ -375,7 +391,11 @@ class FloorTracker:
         plane = fit_floor_ransac(pts, rng=self._rng, config=self.config)
         if not plane.valid:
             self.ransac_failures += 1
+            self._since_failure = 0
         return plane
+
+    def _may_retry(self) -> bool:
+        return self._since_failure >= self.config.retry_interval
 
     def _adopt(self, plane: FloorPlane, pts: F64, gain: F64) -> None:
         self.plane = plane
@@ -395,17 +415,22 @@ class FloorTracker:
         cfg = self.config
         self.frames += 1
         self._since_ransac += 1
+        self._since_failure += 1
         self.refit_this_frame = False
         if points.ndim == 3:
-            n_ransac = len(range(0, points.shape[0], cfg.sample_stride)) * len(range(0, points.shape[1], cfg.sample_stride))
-            n_check = len(range(0, points.shape[0], cfg.check_stride)) * len(range(0, points.shape[1], cfg.check_stride))
+            rows, cols = points.shape[0], points.shape[1]
+            n_ransac = -(-rows // cfg.sample_stride) * -(-cols // cfg.sample_stride)  # ceil divisions
+            n_check = -(-rows // cfg.check_stride) * -(-cols // cfg.check_stride)
         else:
-            n_ransac = len(range(0, points.reshape(-1, 3).shape[0], cfg.sample_stride))
-            n_check = len(range(0, points.reshape(-1, 3).shape[0], cfg.check_stride))
+            n = points.reshape(-1, 3).shape[0]
+            n_ransac, n_check = -(-n // cfg.sample_stride), -(-n // cfg.check_stride)
         # inlier count needed in the check subsample (min_inliers is given at sample_stride)
         min_check = max(3, int(cfg.min_inliers * n_check / max(1, n_ransac)))
 
         if not self.plane.valid:
+            if not self._may_retry():
+                self.floor_visible = False
+                return self.plane
             self.refit_this_frame = True
             pts_r = self._subsample(points, cfg.sample_stride)
             plane = self._run_ransac(pts_r)
@@ -426,7 +451,7 @@ class FloorTracker:
             or int(near.sum()) < min_check
             or rms > max(cfg.max_rms_growth * self._ref_rms, 0.5 * cfg.inlier_threshold)
         )
-        if lost or self._since_ransac >= cfg.refit_interval:
+        if (lost and self._may_retry()) or self._since_ransac >= cfg.refit_interval:
             self.refit_this_frame = True
             plane = self._run_ransac(self._subsample(points, cfg.sample_stride))
             if plane.valid:
@@ -448,6 +473,9 @@ class FloorTracker:
             elif lost:
                 self.floor_visible = False
                 return self.plane
+        elif lost:  # waiting for the next RANSAC attempt: keep the plane untouched
+            self.floor_visible = False
+            return self.plane
         # cheap path: least-squares refinement on the near-plane points, smoothed in
         if int(near.sum()) < min_check:
             self.floor_visible = False
@@ -556,12 +584,14 @@ class BackgroundModel:
         cube = np.stack(stack)
         cube[~(np.isfinite(cube) & (cube > 0))] = np.nan
         n_valid = np.isfinite(cube).sum(axis=0)
-        with np.errstate(all="ignore"):
-            import warnings
-
-            with warnings.catch_warnings():
-                warnings.simplefilter("ignore", RuntimeWarning)
-                med = np.nanmedian(cube, axis=0)
+        # per-pixel median of the valid values (np.nanmedian is very slow on mostly-NaN stacks):
+        # NaN sorts last, so the valid values are the first n_valid entries of each column
+        cube.sort(axis=0)
+        lo = np.maximum(n_valid - 1, 0) // 2
+        hi = np.maximum(n_valid, 1) // 2
+        a = np.take_along_axis(cube, lo[None], axis=0)[0]
+        b = np.take_along_axis(cube, np.minimum(hi, len(stack) - 1)[None], axis=0)[0]
+        med = np.where(n_valid % 2 == 1, a, 0.5 * (a + b)).astype(np.float32)
         med[n_valid < max(1, math.ceil(min_valid_fraction * len(stack)))] = np.nan
         return cls(med, n_frames=len(stack))
 
@@ -636,12 +666,17 @@ class HmmConfig:
     """f(ε>0): likelihood of an occupied state when the camera sees through the voxel."""
     p_unknown: float = 0.5
     """f(ε<0) (voxel hidden behind a surface) and missing depth: no information."""
-    free_margin: float = 0.05
+    free_margin: float = 0.03
     """ε must exceed this (m) for a voxel to be seen through (absorbs depth noise)."""
     min_points: int = 3
     """Foreground points needed in a voxel to observe it as occupied."""
     max_height: float = 1.2
     """Top of the grid above the floor (m)."""
+    init_occupied_static: bool = False
+    """Initialise cells occupied in the first frame as static (003's "static scene at start"): removes
+    the walker's frame at once, but feet/legs in view at start are static until they move away and
+    low cells whose free space is hard to observe stay static.  False: every cell starts empty and
+    static structure is recognised after ~76 frames (ψ = e^-38)."""
 
     def validate(self) -> None:
         if not (self.cell_size > 0):
@@ -665,9 +700,9 @@ class OccupancyHMM:
     Rows/cols of the state distribution are ordered (O, M, E).  Per frame:
     ``Q_t ∝ (Q_{t-1}ᵀ A) ⊙ [f, f, 1−f]`` (003), then MAP classification.  Foreground
     points in cells whose MAP state is O (static in the camera frame, e.g. the
-    walker's own frame) are dropped; moving legs stay M.  The first update initialises
-    the grid (occupied cells static, others empty; 003 assumes a static scene at
-    start), so legs already in view then are static until they move.  Note: a leg that stays
+    walker's own frame) are dropped; moving legs stay M.  All cells start empty
+    (see ``HmmConfig.init_occupied_static`` for 003's static-scene initialisation), so
+    static structure is recognised after ~76 frames.  Note: a leg that stays
     completely still for ~2-3 s (≈ 38 / ln((1−α)/(1−γ)) ≈ 76 frames) also becomes
     static — this is 003's design (moved furniture settles), hence off by default.
     """
@@ -705,36 +740,55 @@ class OccupancyHMM:
         f[hit] = cfg.p_hit
         return f
 
+    def cell_index_xyz(
+        self, x: NDArray[np.floating], y: NDArray[np.floating], z: NDArray[np.floating]
+    ) -> NDArray[np.intp]:
+        """Flat cell index of walker-frame coordinates given as 1-D arrays (m); -1 outside the grid."""
+        inv = 1.0 / self.config.cell_size
+        nx, ny, nz = self.dims
+        with np.errstate(invalid="ignore", over="ignore"):
+            fx = (np.asarray(x, dtype=np.float32) - np.float32(self.origin[0])) * np.float32(inv)
+            fy = (np.asarray(y, dtype=np.float32) - np.float32(self.origin[1])) * np.float32(inv)
+            fz = (np.asarray(z, dtype=np.float32) - np.float32(self.origin[2])) * np.float32(inv)
+            inside = fx >= 0  # NaN -> False
+            inside &= fx < nx
+            inside &= fy >= 0
+            inside &= fy < ny
+            inside &= fz >= 0
+            inside &= fz < nz
+        flat = np.full(inside.shape, -1, dtype=np.intp)
+        # non-negative, so truncation == floor
+        flat[inside] = (fx[inside].astype(np.intp) * ny + fy[inside].astype(np.intp)) * nz + fz[inside].astype(np.intp)
+        return flat
+
     def cell_index(self, points_walker: NDArray[np.floating]) -> NDArray[np.intp]:
-        """Flat cell index of ``(N, 3)`` walker-frame points; -1 outside the grid."""
+        """Flat cell index of ``(N, 3)`` walker-frame points (m); -1 outside the grid."""
         p = np.asarray(points_walker, dtype=np.float64).reshape(-1, 3)
-        idx = np.floor((p - self.origin) / self.config.cell_size)
-        dims = np.asarray(self.dims)
-        inside = np.all((idx >= 0) & (idx < dims), axis=1)
-        idx = np.where(inside[:, None], idx, 0).astype(np.intp)
-        flat = np.ravel_multi_index((idx[:, 0], idx[:, 1], idx[:, 2]), self.dims)
-        return np.where(inside, flat, -1)
+        return self.cell_index_xyz(p[:, 0], p[:, 1], p[:, 2])
 
     def update(
         self,
         *,
-        points_walker: NDArray[np.floating],
+        points_walker: NDArray[np.floating] | None = None,
         floor: FloorPlane,
         depth_m: NDArray[np.floating] | None = None,
         intrinsics: CameraIntrinsics | None = None,
+        cells: NDArray[np.intp] | None = None,
     ) -> NDArray[np.int8]:
-        """One HMM step from this frame's candidate foreground points (walker frame, ``(N, 3)``).
+        """One HMM step from this frame's candidate foreground points (walker frame, ``(N, 3)``, m).
 
+        ``cells`` may replace ``points_walker`` with precomputed :meth:`cell_index` values.
         Free-space evidence needs ``depth_m`` and ``intrinsics`` (voxel centres are
         projected into the depth image); without them only hits are used.
         Returns the MAP state per cell (0 = O, 1 = M, 2 = E).
         """
         n_cells = self.q.shape[0]
-        cell = self.cell_index(points_walker)
-        counts = np.bincount(cell[cell >= 0], minlength=n_cells)
+        if cells is None:
+            cells = self.cell_index(np.empty((0, 3)) if points_walker is None else points_walker)
+        counts = np.bincount(cells[cells >= 0], minlength=n_cells)
         hit = counts >= self.config.min_points
         eps = np.full(n_cells, np.nan)
-        if depth_m is not None and intrinsics is not None and floor.valid:
+        if depth_m is not None and intrinsics is not None and floor.valid and depth_m.ndim == 2:
             rot, t = floor.walker_transform()
             cam = (self._centres - t) @ rot  # p_cam = Rᵀ (p_walker − t)
             uv = intrinsics.project(cam)
@@ -746,16 +800,15 @@ class OccupancyHMM:
             eps[ok] = depth_m[vi, ui] - cam[ok, 2]
         f = self.observation(eps, hit)
         if self.updates == 0:
-            # 003 assumes a static scene at initialisation: what is occupied in the first frame is
-            # static background (the walker's own frame), everything else starts empty.  (A uniform
-            # prior would leave O mass in cells hidden at start, which then turn static within a
-            # few frames as soon as a leg enters them.)
             self.q = np.zeros_like(self.q)
-            self.q[hit, STATE_STATIC] = 1.0
-            self.q[~hit, STATE_EMPTY] = 1.0
-            self.states = np.argmax(self.q, axis=1).astype(np.int8)
-            self.updates += 1
-            return self.states
+            if self.config.init_occupied_static:
+                # 003 assumes a static scene at initialisation: what is occupied now is background
+                self.q[hit, STATE_STATIC] = 1.0
+                self.q[~hit, STATE_EMPTY] = 1.0
+                self.states = np.argmax(self.q, axis=1).astype(np.int8)
+                self.updates += 1
+                return self.states
+            self.q[:, STATE_EMPTY] = 1.0  # then the regular step below
         pred = self.q @ self.transition
         pred[:, 0] *= f
         pred[:, 1] *= f
@@ -769,13 +822,16 @@ class OccupancyHMM:
         self.updates += 1
         return self.states
 
-    def static_points(self, points_walker: NDArray[np.floating]) -> BoolArray:
-        """Bool per point: it lies in a cell whose MAP state is static (O)."""
-        cell = self.cell_index(points_walker)
-        out = np.zeros(cell.shape[0], dtype=bool)
-        inside = cell >= 0
-        out[inside] = self.states[cell[inside]] == STATE_STATIC
+    def static_cells(self, cells: NDArray[np.intp]) -> BoolArray:
+        """Bool per cell index (-1 = outside): the cell's MAP state is static (O)."""
+        out = np.zeros(cells.shape[0], dtype=bool)
+        inside = cells >= 0
+        out[inside] = self.states[cells[inside]] == STATE_STATIC
         return out
+
+    def static_points(self, points_walker: NDArray[np.floating]) -> BoolArray:
+        """Bool per ``(N, 3)`` walker-frame point: it lies in a cell whose MAP state is static (O)."""
+        return self.static_cells(self.cell_index(points_walker))
 
 
 # =========================================================================== segmenter
@@ -930,6 +986,10 @@ class Segmenter:
         h += off
         return xw, yw, h
 
+    def set_intrinsics(self, intrinsics: CameraIntrinsics | None) -> None:
+        """Intrinsics the points are back-projected with (enables the fast path and HMM free space)."""
+        self.intrinsics = intrinsics
+
     def set_background(self, model: BackgroundModel | None) -> None:
         """Use ``model`` (None = learn again from the next ``background_frames`` frames)."""
         self.background = model
@@ -973,7 +1033,8 @@ class Segmenter:
             raise ValueError(f"points shape {points.shape} does not match depth shape {depth_m.shape} + (3,)")
         shape = (int(depth_m.shape[0]), int(depth_m.shape[1]))
         z = depth_m if depth_m.dtype == np.float32 else depth_m.astype(np.float32)
-        valid = (z >= cfg.min_range) & (z <= cfg.max_range)  # NaN -> False
+        valid = z >= cfg.min_range  # NaN -> False
+        valid &= z <= cfg.max_range
         n_valid = int(np.count_nonzero(valid))
 
         floor = self.floor_tracker.update(points)
@@ -996,7 +1057,10 @@ class Segmenter:
         h: NDArray[np.float32] | None = None
         if floor.valid:
             xw, yw, h = self._walker_coords(pts, z, floor)
-            in_roi = (xw <= roi.forward) & (xw >= roi.near) & (yw <= roi.left) & (yw >= -roi.right)
+            in_roi = xw <= roi.forward  # in-place &= avoids temporaries (speed)
+            in_roi &= xw >= roi.near
+            in_roi &= yw <= roi.left
+            in_roi &= yw >= -roi.right
             if roi.max_height is not None:
                 in_roi &= h <= roi.max_height
         elif cfg.floor_method == "background" and not cfg.require_floor:
@@ -1010,7 +1074,10 @@ class Segmenter:
         if cfg.floor_method == "plane":
             assert h is not None
             if roi.min_height_per_m2 > 0:
-                not_floor = h > roi.min_height + np.float32(roi.min_height_per_m2) * zf * zf
+                thr = zf * zf
+                thr *= np.float32(roi.min_height_per_m2)
+                thr += np.float32(roi.min_height)
+                not_floor = h > thr
             else:
                 not_floor = h > roi.min_height
         else:
@@ -1020,15 +1087,16 @@ class Segmenter:
             not_floor = self.background.foreground_mask(
                 z, threshold=cfg.background_threshold, threshold_per_m2=cfg.background_threshold_per_m2
             ).reshape(-1)
-        cand_nf = valid_f & not_floor
+        cand_nf = not_floor
+        cand_nf &= valid_f
         n_not_floor = int(np.count_nonzero(cand_nf))
         mask = cand_nf & in_roi
         n_static = 0
         if self.hmm is not None and floor.valid and xw is not None and yw is not None and h is not None:
             idx = np.flatnonzero(mask)
-            pw = np.stack([xw[idx], yw[idx], h[idx]], axis=1)
-            self.hmm.update(points_walker=pw, floor=floor, depth_m=z, intrinsics=self.intrinsics)
-            static = self.hmm.static_points(pw)
+            cells = self.hmm.cell_index_xyz(xw[idx], yw[idx], h[idx])
+            self.hmm.update(cells=cells, floor=floor, depth_m=z, intrinsics=self.intrinsics)
+            static = self.hmm.static_cells(cells)
             n_static = int(np.count_nonzero(static))
             mask[idx[static]] = False
         fg = _select_rows(pts, mask)

@@ -105,6 +105,7 @@ class TrackerConfig:
     # sampling
     partitioned: bool = False  # root -> left leg -> right leg partitions
     n_layers: int = 1  # annealing layers per partition
+    root_layers: int = 1  # layers of the root (hips/pelvis/shape) partition, <= n_layers
     anneal_betas: tuple[float, ...] = (1.0,)  # likelihood exponent per layer (last = final)
     layer_noise_decay: float = 0.5  # noise factor between successive layers
     resample_scheme: str = "systematic"
@@ -166,13 +167,13 @@ PAPER = TrackerConfig(
     partitioned=False,
     n_layers=1,
     anneal_betas=(1.0,),
-    init_rounds=4,
+    init_rounds=1,
 )
 """Seed paper: 5000 particles, full-resolution 2D cue, 10 % foreground, n = 10, λ1 = 1/5 mm⁻¹,
 λ2 = 1/3 mm⁻¹, plain SIR (no partitions/annealing), constant velocity."""
 
 DEFAULT = TrackerConfig(
-    n_particles=128,
+    n_particles=96,
     cue="combined",
     fg_fraction=0.1,
     fg_max_points=128,
@@ -180,17 +181,18 @@ DEFAULT = TrackerConfig(
     lambda_3d=4.0 * PAPER_LAMBDA_3D,
     lambda_2d=4.0 * PAPER_LAMBDA_2D,
     truncate_3d=0.15,
-    cue2d_stride=8,
+    cue2d_stride=10,
     truncate_2d=0.5,
     occlusion_aware=True,
     hidden_parts=True,
     partitioned=True,
     n_layers=2,
+    root_layers=2,
     anneal_betas=(0.5, 1.0),
     velocity_damping=0.7,
     init_rounds=6,
 )
-"""Real-time preset: partitioned annealed sampling with few particles, 80x60 2D cue."""
+"""Real-time preset: partitioned annealed sampling with 96 particles, 64x48 2D cue."""
 
 PRESETS: dict[str, TrackerConfig] = {"paper": PAPER, "default": DEFAULT}
 
@@ -273,6 +275,7 @@ class LegTracker:
         self._x_prev: FloatArray | None = None
         self._logw: FloatArray | None = None
         self._mean: FloatArray | None = None
+        self._last_ll: FloatArray | None = None
         self._low_conf = 0
         self._frames_tracked = 0
         self._hidden = _HiddenState()
@@ -321,8 +324,11 @@ class LegTracker:
         else:
             self._step(frame)
 
-        logw = self._evaluate(frame, self._x, legs=(0, 1), ref=None)
-        self._logw = logw
+        if self._last_ll is not None:
+            self._logw = self._last_ll  # weights of the last annealing layer (right-leg stage)
+        else:
+            self._logw = self._evaluate(frame, self._x, legs=(0, 1), ref=None)
+        self._last_ll = None
         pose, conf = self._estimate(frame, stamp)
         # track management
         if conf < cfg.lost_confidence:
@@ -467,18 +473,38 @@ class LegTracker:
         right[L.RIGHT] = True
         return [(root, (0, 1), None), (left, (0,), 1), (right, (1,), 0)]
 
-    def _run_stages(self, frame: _Frame, x: FloatArray, *, gain: float | FloatArray, layers: int, betas: tuple[float, ...]) -> FloatArray:
-        """Partitioned annealed search; returns resampled particles (uniform weights)."""
+    def _run_stages(
+        self,
+        frame: _Frame,
+        x: FloatArray,
+        *,
+        gain: float | FloatArray,
+        layers: int,
+        betas: tuple[float, ...],
+        final: bool = False,
+    ) -> FloatArray:
+        """Partitioned annealed search.
+
+        Returns the particles; with ``final`` the very last layer is *not* resampled and its
+        log likelihood is kept in ``self._last_ll`` as the frame's particle weights (saves one
+        full evaluation), otherwise the returned particles carry uniform weights.
+        """
         cfg = self.config
-        for dims, legs, ref_leg in self._stages():
+        stages = self._stages()
+        for k, (dims, legs, ref_leg) in enumerate(stages):
             ref = None
             if ref_leg is not None:
                 ref = self._reference(frame, self._mean_estimate(x), ref_leg)
-            for layer in range(layers):
+            n_layers = min(layers, cfg.root_layers) if (cfg.partitioned and k == 0) else layers
+            b = betas[-n_layers:]
+            for layer in range(n_layers):
                 layer_gain = gain * cfg.layer_noise_decay**layer
                 x_new, kin = self._diffuse(x, dims, layer_gain)
                 ll = self._evaluate(frame, x_new, legs=legs, ref=ref, kin=kin)
-                idx = resample(betas[layer] * ll, rng=self.rng, scheme=cfg.resample_scheme)
+                if final and k == len(stages) - 1 and layer == n_layers - 1:
+                    self._last_ll = b[layer] * ll
+                    return x_new
+                idx = resample(b[layer] * ll, rng=self.rng, scheme=cfg.resample_scheme)
                 x = x_new[idx]
                 self._x_prev = self._x_prev[idx] if self._x_prev is not None else None
         return x
@@ -500,7 +526,7 @@ class LegTracker:
         x_pred, _, _ = lm.enforce_constraints(x + vel, fallback=x)
         gain = self._leg_gain()
         if cfg.partitioned or cfg.n_layers > 1:
-            x = self._run_stages(frame, x_pred, gain=gain, layers=cfg.n_layers, betas=cfg.anneal_betas)
+            x = self._run_stages(frame, x_pred, gain=gain, layers=cfg.n_layers, betas=cfg.anneal_betas, final=True)
         else:
             x, _ = self._diffuse(x_pred, np.ones(lm.STATE_DIM, dtype=bool), gain)
         self._x = x

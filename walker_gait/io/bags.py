@@ -1058,7 +1058,7 @@ class Recording:
                     info = dataclasses.replace(frame.camera_info, frame_id=frame.frame_id)
                     file_info_by_frame[frame.frame_id] = info
                 frame = dataclasses.replace(frame, camera_info=info)
-            if frame.stamp_ns == 0 and not zero_stamp_warned:
+            if frame.stamp_ns == 0 and log_ns != 0 and not zero_stamp_warned:
                 zero_stamp_warned = True
                 self._frame_warning(f"depth images on {depth} have zero header stamps; using log times")
             if frame.stamp_ns == 0:

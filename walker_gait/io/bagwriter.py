@@ -44,7 +44,7 @@ from typing import Any, Literal
 
 from rosbags.interfaces import Connection, Qos
 from rosbags.rosbag1 import Writer as Ros1Writer
-from rosbags.rosbag2 import StoragePlugin
+from rosbags.rosbag2 import CompressionFormat, CompressionMode, StoragePlugin
 from rosbags.rosbag2 import Writer as Ros2Writer
 from rosbags.typesys import Stores, get_typestore
 from rosbags.typesys.store import Typestore
@@ -82,6 +82,9 @@ class BagWriter:
             (e.g. ``walker_gait_msgs/msg/LegTrack``) into it before adding topics.
         overwrite: replace an existing output (otherwise :class:`BagWriteError`).
         custom_data: rosbag2 ``custom_data`` key/value strings (ignored for ROS 1).
+        compress: zstd chunk compression for MCAP (``CompressionMode.STORAGE``), zstd per
+            message for sqlite3, lz4 chunks for ROS 1.  All are read transparently by
+            ``rosbags`` / ``ros2 bag``.
     """
 
     def __init__(
@@ -92,6 +95,7 @@ class BagWriter:
         typestore: Typestore | None = None,
         overwrite: bool = False,
         custom_data: dict[str, str] | None = None,
+        compress: bool = False,
     ) -> None:
         if fmt not in BAG_FORMATS:
             msg = f"unknown bag format {fmt!r}; expected one of {', '.join(BAG_FORMATS)}"
@@ -104,6 +108,13 @@ class BagWriter:
         self.typestore: Typestore = typestore if typestore is not None else default_typestore(fmt)
         self.overwrite = overwrite
         self.custom_data = dict(custom_data or {})
+        self.compress = compress
+        if compress and fmt == "sqlite3" and self._single_file:
+            msg = (
+                f"compressed sqlite3 needs the rosbag2 directory layout (metadata.yaml records the "
+                f"compression); use a path without the .db3 suffix instead of {self.path}"
+            )
+            raise BagWriteError(msg)
         self._tmpdir: Path | None = None
         self._writer: Ros1Writer | Ros2Writer | None = None
         self._inner: Path | None = None
@@ -137,6 +148,8 @@ class BagWriter:
             if self.fmt == "ros1":
                 self._inner = self._tmpdir / self.path.name
                 writer: Ros1Writer | Ros2Writer = Ros1Writer(self._inner)
+                if self.compress:
+                    writer.set_compression(Ros1Writer.CompressionFormat.LZ4)
             else:
                 # rosbag2 directory named like the final output (minus a file suffix), so the
                 # storage file inside is called <name>.mcap / <name>.db3.
@@ -144,6 +157,9 @@ class BagWriter:
                 self._inner = self._tmpdir / stem
                 plugin = StoragePlugin.MCAP if self.fmt == "mcap" else StoragePlugin.SQLITE3
                 writer = Ros2Writer(self._inner, version=Ros2Writer.VERSION_LATEST, storage_plugin=plugin)
+                if self.compress:
+                    mode = CompressionMode.STORAGE if self.fmt == "mcap" else CompressionMode.MESSAGE
+                    writer.set_compression(mode, CompressionFormat.ZSTD)
                 for key, value in self.custom_data.items():
                     writer.set_custom_data(key, value)
             writer.open()

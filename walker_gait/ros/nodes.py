@@ -109,7 +109,18 @@ class FloorSegmentationNode(WalkerNode):
         self.pub_fg = self.raw_publisher(M.POINT_CLOUD2, "foreground/points", STREAM)
         self.pub_mask = self.raw_publisher(M.IMAGE, "foreground/mask", STREAM)
         self.pub_floor = self.raw_publisher(M.FLOOR_PLANE, "floor_plane", STREAM)
+        self.use_rectified = bool(self.declare_parameter("use_rectified", True).value)
+        self.raw_subscription(M.CAMERA_INFO, "depth/camera_info", self.on_info, SENSOR_IN)
         self.raw_subscription(M.POINT_CLOUD2, "points", self.on_cloud, STREAM_IN)
+        self.intrinsics: Any = None
+
+    def on_info(self, msg: Any) -> None:
+        from walker_gait.core.depth import intrinsics_from_camera_info
+
+        intr, _ = intrinsics_from_camera_info(**M.intrinsics_fields(msg), rectified=self.use_rectified)
+        if intr != self.intrinsics:
+            self.intrinsics = intr
+            self.segmenter.set_intrinsics(intr)
 
     def on_cloud(self, msg: Any) -> None:
         points = M.read_pointcloud2(msg)

@@ -95,6 +95,17 @@ class Mesh:
         return Mesh(self.vertices @ rot.T + trans, self.faces, self.material, self.side)
 
 
+def orient_faces(vertices: FloatArray, faces: IntArray, interior: FloatArray) -> IntArray:
+    """Flip faces so that their normal ``(p1-p0) x (p2-p0)`` points away from ``interior`` (M,3)."""
+    p0, p1, p2 = vertices[faces[:, 0]], vertices[faces[:, 1]], vertices[faces[:, 2]]
+    n = np.cross(p1 - p0, p2 - p0)
+    out = (p0 + p1 + p2) / 3.0 - interior
+    flip = np.sum(n * out, axis=-1) < 0
+    f = faces.copy()
+    f[flip, 1], f[flip, 2] = faces[flip, 2], faces[flip, 1]
+    return f
+
+
 def grid_faces(n_rings: int, n_theta: int, *, closed_theta: bool = True) -> IntArray:
     """Two triangles per quad of an ``n_rings x n_theta`` vertex grid (row-major)."""
     r = np.arange(n_rings - 1)[:, None]
@@ -137,18 +148,27 @@ def tube(
         + (r_lat[:, None] * c[None, :] * mult)[..., None] * e_lat[:, None, :]
         + (r_ap[:, None] * s[None, :] * mult)[..., None] * e_ap[:, None, :]
     ).reshape(-1, 3)
-    faces = [grid_faces(len(centres), n_theta)]
+    side_faces = grid_faces(len(centres), n_theta)
+    ring = side_faces[:, 0] // n_theta
+    ring_next = np.minimum(ring + 1, len(centres) - 1)
+    interiors = [0.5 * (centres[ring] + centres[ring_next])]
+    faces = [side_faces]
     verts = [v]
     n = len(v)
+    axis0 = centres[min(1, len(centres) - 1)] - centres[0]
+    axis1 = centres[-1] - centres[max(0, len(centres) - 2)]
     if cap_start:
         verts.append(centres[:1])
         faces.append(_cap(np.arange(n_theta), n))
+        interiors.append(np.tile(centres[0] + axis0, (n_theta, 1)))
         n += 1
     if cap_end:
         verts.append(centres[-1:])
         faces.append(_cap(np.arange(n_theta) + (len(centres) - 1) * n_theta, n))
-    f = np.concatenate(faces)
-    return Mesh(np.concatenate(verts), f, np.full(len(f), material, np.int8), np.full(len(f), side, np.int8))
+        interiors.append(np.tile(centres[-1] - axis1, (n_theta, 1)))
+    allv = np.concatenate(verts)
+    f = orient_faces(allv, np.concatenate(faces), np.concatenate(interiors))
+    return Mesh(allv, f, np.full(len(f), material, np.int8), np.full(len(f), side, np.int8))
 
 
 def _segment_axes(p: FloatArray, d: FloatArray, fwd: FloatArray, sgn: float) -> tuple[FloatArray, FloatArray, FloatArray]:
@@ -275,13 +295,16 @@ def shoe_mesh(
     zz = h[:, None] / 2 * (1.0 + np.sign(st) * np.abs(st) ** ex)
     xx = np.broadcast_to((s * L)[:, None], yy.shape)
     local = np.stack([xx, yy, zz], -1).reshape(-1, 3)
-    faces = [grid_faces(ns, n_th)]
+    side_faces = grid_faces(ns, n_th)
     n = len(local)
     centres = np.array([[0.0, 0.0, h[0] / 2], [L, 0.0, h[-1] / 2]])
-    faces.append(_cap(np.arange(n_th), n))
-    faces.append(_cap(np.arange(n_th) + (ns - 1) * n_th, n + 1))
-    verts = np.concatenate([local, centres]) @ foot_rot.T + heel
-    f = np.concatenate(faces)
+    ring = side_faces[:, 0] // n_th
+    mid = np.stack([(s[ring] + 0.5 / (ns - 1)) * L, np.zeros(len(ring)), 0.5 * (h[ring] + h[np.minimum(ring + 1, ns - 1)]) / 2], -1)
+    faces = [side_faces, _cap(np.arange(n_th), n), _cap(np.arange(n_th) + (ns - 1) * n_th, n + 1)]
+    interior = np.concatenate([mid, np.tile([0.3 * L, 0.0, h[0] / 2], (n_th, 1)), np.tile([0.7 * L, 0.0, h[-1] / 2], (n_th, 1))])
+    local_all = np.concatenate([local, centres])
+    f = orient_faces(local_all, np.concatenate(faces), interior)
+    verts = local_all @ foot_rot.T + heel
     return Mesh(verts, f, np.full(len(f), MAT_SHOE, np.int8), np.full(len(f), side, np.int8))
 
 
@@ -363,8 +386,9 @@ def box_mesh(centre: FloatArray, half: FloatArray, rot: FloatArray, *, material:
             verts.append(p.reshape(-1, 3) * half)
             faces.append(quad + n)
             n += (tiles + 1) ** 2
-    v = np.concatenate(verts) @ rot.T + centre
-    f = np.concatenate(faces)
+    local = np.concatenate(verts)
+    f = orient_faces(local, np.concatenate(faces), np.zeros((sum(len(x) for x in faces), 3)))
+    v = local @ rot.T + centre
     return Mesh(v, f, np.full(len(f), material, np.int8), np.full(len(f), -1, np.int8))
 
 

@@ -1,23 +1,24 @@
 """Exact gait events and GAITRite-style step parameters from the footfall plan (world frame).
 
-Definitions (shared with ``core/gait.py``; all from *planted heel positions in world
-coordinates* at heel strike, i.e. where the footprint is on a GAITRite mat):
+Definitions follow ``docs/GAIT_METRICS.md`` (``core/gait.py``), evaluated on the *planted heel
+positions in world coordinates* (where the footprints are on a GAITRite mat):
 
-* **footfall**: a heel strike (HS) of one foot, with its planted heel point ``h`` (floor level).
-* **line of progression** for the footfall of foot ``s`` at ``h_k``: the unit horizontal vector
-  from the previous footfall of the same foot ``h_{k-1}`` to ``h_k`` (its stride line); when
-  there is no previous same-side footfall in the bout, the session walking direction (+X).
-* **step length**: ``(h_k - h_o) . d`` where ``h_o`` is the heel of the previous opposite
-  footfall and ``d`` the line of progression; **step width**: ``|(h_k - h_o) x d|`` (horizontal,
-  perpendicular distance, always >= 0); **step time**: ``t_k - t_o``.
-* **stride length / time**: ``|h_k - h_{k-1}|`` / ``t_k - t_{k-1}`` (same foot).
-* For the gait cycle of foot ``s`` that *ends* at this HS (previous HS of ``s`` -> this HS):
-  stance = TO_s - HS_prev_s, swing = HS_s - TO_s, single support = swing time of the opposite
-  foot inside that stance, double support = stance - single support.  NaN when unknown.
-* Steps exist only inside a walking bout (between stand-stills); the first footfall of a bout
-  (gait initiation) has no previous opposite footfall *in the bout* and is not a step; the
-  closing footfall that brings the feet together is a step (short step length).  A
-  stand-still produces zero steps.
+* **footfall**: a heel strike (HS) of one foot with its planted heel point; the feet's standing
+  positions at the session start are footfalls with unknown time.
+* **line of progression** ``u`` for the step ending at footfall ``k``: direction of the sum of
+  the last 4 stride vectors (same-foot footfall-to-footfall displacements of either foot, up to
+  and including this one); before the first stride: world +X (the walker's -x axis).
+* **step length** ``d . u`` and **step width** ``|d x u|`` with ``d`` = this heel minus the heel
+  of the previous footfall of the opposite foot (horizontal); **step time**: previous opposite
+  HS -> this HS (NaN when that HS is unknown, i.e. the standing start; includes pauses after a
+  stop, as measured).
+* **stride length** ``(this - previous same-foot footfall) . u``; **stride time** previous
+  same-foot HS -> this HS.
+* **stance** previous same-foot HS -> its TO; **swing** that TO -> this HS; **single support**
+  the opposite foot's swing (TO -> HS) inside that cycle; **double support** stance - single
+  support (initial + terminal).  NaN when an event is unknown.
+* Every heel strike in the session is a step (including gait initiation after a stop and the
+  closing step that brings the feet together); a stand-still produces zero steps.
 """
 
 from __future__ import annotations
@@ -88,66 +89,65 @@ def gait_events(plans: list[dict[str, FloatArray]], *, foot_length: float, t_min
     return out
 
 
-def gait_steps(plans: list[dict[str, FloatArray]], *, t_min: float, t_max: float) -> list[GtStep]:
+def gait_steps(
+    plans: list[dict[str, FloatArray]], *, t_min: float, t_max: float, n_progression: int = 4
+) -> list[GtStep]:
     """GAITRite steps for all heel strikes within ``[t_min, t_max]`` (see module docstring)."""
-    falls = []  # (time, side, k)
-    for side in (Side.LEFT, Side.RIGHT):
-        f = plans[side]
-        for k in range(len(f["hs"])):
-            if f["hs"][k] > -1e5:
-                falls.append((float(f["hs"][k]), side, k))
-    falls.sort()
-    steps: list[GtStep] = []
     nan = float("nan")
+    falls = []  # (time, side, k) of real heel strikes
+    for side in (Side.LEFT, Side.RIGHT):
+        for k in range(len(plans[side]["hs"])):
+            if plans[side]["hs"][k] > -1e5:
+                falls.append((float(plans[side]["hs"][k]), side, k))
+    falls.sort()
+
+    def known(t: float) -> bool:
+        return t > -1e5
+
+    strides: list[np.ndarray] = []  # stride vectors in HS order
+    steps: list[GtStep] = []
     for t, side, k in falls:
+        f = plans[side]
+        fo = plans[Side(1 - side)]
+        h = np.array([*f["heel"][k], 0.0])
+        stride = h[:2] - f["heel"][k - 1]  # k >= 1 always (index 0 = standing start)
+        strides.append(stride)
         if not (t_min <= t <= t_max):
             continue
-        f = plans[side]
-        o = Side(1 - side)
-        fo = plans[o]
-        bout = int(f["bout"][k])
-        # previous opposite footfall (in the same bout)
+        acc = np.sum(strides[-n_progression:], axis=0)
+        nrm = float(np.linalg.norm(acc))
+        u = acc / nrm if nrm > 1e-6 else np.array([1.0, 0.0])
         ko = int(np.searchsorted(fo["hs"], t, side="left") - 1)
-        if ko < 0 or fo["hs"][ko] < -1e5 or int(fo["bout"][ko]) != bout:
-            continue
-        h = np.array([*f["heel"][k], 0.0])
         ho = np.array([*fo["heel"][ko], 0.0])
-        same_prev = k - 1 >= 0 and f["hs"][k - 1] > -1e5 and int(f["bout"][k - 1]) == bout
-        if same_prev:
-            hp = np.array([*f["heel"][k - 1], 0.0])
-            d = h - hp
-            stride_len = float(np.linalg.norm(d[:2]))
-            stride_time = float(t - f["hs"][k - 1])
-            stance = float(f["to"][k - 1] - f["hs"][k - 1])
-            swing = float(t - f["to"][k - 1])
-            # opposite swing inside that stance: TO_o -> HS_o = fo[ko]
-            to_o = float(fo["to"][ko - 1]) if ko - 1 >= 0 else nan
-            single = float(fo["hs"][ko] - to_o) if np.isfinite(to_o) and to_o >= f["hs"][k - 1] else nan
-            double = stance - single if np.isfinite(single) else nan
-            dirv = d[:2] / max(np.linalg.norm(d[:2]), 1e-9)
-        else:
-            stride_len = stride_time = stance = swing = single = double = nan
-            dirv = np.array([1.0, 0.0])
+        t_o = float(fo["hs"][ko])
         rel = (h - ho)[:2]
-        step_len = float(rel @ dirv)
-        step_w = float(abs(rel[0] * dirv[1] - rel[1] * dirv[0]))
+        t_prev = float(f["hs"][k - 1])
+        to_prev = float(f["to"][k - 1])
+        stance = to_prev - t_prev if known(t_prev) else nan
+        swing = t - to_prev
+        # opposite swing inside the previous cycle of this foot: fo TO (of footfall ko-1) -> fo HS (ko)
+        single = nan
+        if known(t_prev) and ko >= 1 and known(t_o):
+            to_o = float(fo["to"][ko - 1])
+            if t_prev <= to_o <= to_prev:
+                single = t_o - to_o
         steps.append(
             GtStep(
                 stamp=t,
                 side=side,
                 index=len(steps),
-                step_length=step_len,
-                step_width=step_w,
-                step_time=float(t - fo["hs"][ko]),
-                stride_length=stride_len,
-                stride_time=stride_time,
+                step_length=float(rel @ u),
+                step_width=float(abs(rel[0] * u[1] - rel[1] * u[0])),
+                step_time=t - t_o if known(t_o) else nan,
+                stride_length=float(stride @ u),
+                stride_time=t - t_prev if known(t_prev) else nan,
                 stance_time=stance,
                 swing_time=swing,
                 single_support_time=single,
-                double_support_time=double,
+                double_support_time=stance - single if np.isfinite(single) else nan,
                 heel_world=h,
                 prev_opposite_heel_world=ho,
-                bout=bout,
+                bout=int(f["bout"][k]),
             )
         )
     return steps

@@ -201,12 +201,14 @@ def plan_footfalls(
     dims: BodyDims,
     *,
     start_x: float,
+    start_y: float = 0.0,
     t_end: float,
     rng: np.random.Generator,
 ) -> tuple[FootPlan, FootPlan]:
     """Draw the footfall sequence (times, planted heel positions) for ``programme``.
 
-    The user starts standing with the pelvis at ``X = start_x`` and feet ``step_width`` apart.
+    The user starts standing with the pelvis at ``(start_x, start_y)`` facing +X, feet
+    ``step_width`` apart.
     An infinite ``walk`` phase stops planning at ``t_end + 2`` s; after the last phase the user
     stands still.
     Returns ``(left, right)`` plans.
@@ -218,7 +220,9 @@ def plan_footfalls(
         yaw = sgn * params.toe_out
         feet[side].hs.append(-_BIG)
         feet[side].to.append(_BIG)
-        feet[side].heel.append((start_x - ank * np.cos(yaw), sgn * params.step_width / 2 - ank * np.sin(yaw)))
+        feet[side].heel.append(
+            (start_x - ank * np.cos(yaw), start_y + sgn * params.step_width / 2 - ank * np.sin(yaw))
+        )
         feet[side].yaw.append(yaw)
         feet[side].bout.append(-1)
 

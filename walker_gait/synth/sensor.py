@@ -88,13 +88,16 @@ def rasterize(
     intr: CameraIntrinsics,
     *,
     near: float = 0.05,
+    cull_backfaces: bool = True,
 ) -> tuple[FloatArray, NDArray[np.int32], FloatArray]:
     """Z-buffer a triangle soup (camera frame) at the pixel centres.
 
     Returns ``depth`` (H, W) float64 with ``inf`` where empty, ``face`` (H, W) int32 (-1 empty)
     and ``cos`` (H, W) |cos| of the incidence angle between pixel ray and face normal.
     Triangles with a vertex closer than ``near`` are dropped (meshes near the camera must be
-    tessellated finely enough).
+    tessellated finely enough).  With ``cull_backfaces`` faces whose normal
+    ``(p1-p0) x (p2-p0)`` points away from the camera are skipped (closed, outward-oriented
+    meshes; see ``body.orient_faces``).
     """
     H, W = intr.height, intr.width
     depth = np.full(H * W, np.inf)
@@ -107,6 +110,9 @@ def rasterize(
     p2 = vertices[faces[:, 2]]
     z0, z1, z2 = p0[:, 2], p1[:, 2], p2[:, 2]
     ok = (z0 > near) & (z1 > near) & (z2 > near)
+    if cull_backfaces:
+        nrm = np.cross(p1 - p0, p2 - p0)
+        ok &= np.sum(nrm * p0, axis=-1) < 0
     fidx = np.nonzero(ok)[0]
     p0, p1, p2 = p0[ok], p1[ok], p2[ok]
     fx, fy, cx, cy = intr.fx, intr.fy, intr.cx, intr.cy
@@ -253,13 +259,17 @@ def apply_sensor(
     # dropouts ------------------------------------------------------------------------
     lo, hi = model.grazing_cos
     p_graze = np.clip((hi - cos_inc) / max(hi - lo, 1e-9), 0.0, 1.0) ** 2
-    drop = rng.random((H, W)) < p_graze
     edges = depth_edges(z, model.edge_jump)
-    drop |= edges & (rng.random((H, W)) < model.edge_dropout)
-    drop |= rng.random((H, W)) < model.speckle_dropout
+    # union of independent dropout causes with a single uniform draw
+    p_keep = (1.0 - p_graze) * (1.0 - model.speckle_dropout)
+    p_keep = np.where(edges, p_keep * (1.0 - model.edge_dropout), p_keep)
+    drop = rng.random((H, W)) >= p_keep
     if model.fabric_dropout > 0 and np.any(fabric):
-        blob = _smooth_noise(rng, (H, W), max(4, W // 40))
-        thr = np.quantile(blob, model.fabric_dropout)
+        # dropout blobs: threshold a smooth field at the requested area quantile (of the
+        # coarse field, which has the same distribution up to interpolation smoothing)
+        scale = max(4, W // 40)
+        blob = _smooth_noise(rng, (H, W), scale)
+        thr = float(np.quantile(blob[::scale, ::scale], model.fabric_dropout))
         drop |= fabric & (blob < thr)
     if model.kind in ("kinect_v1", "stereo"):
         drop |= shadow_mask(z, intr, model.baseline)

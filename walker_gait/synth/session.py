@@ -371,24 +371,25 @@ class Session:
         mat = np.where(face >= 0, mesh.material[np.maximum(face, 0)], B.MAT_NONE).astype(np.int8)
         side_img = np.where((face >= 0) & (face < n_body), mesh.side[np.maximum(face, 0)], -1).astype(np.int8)
         # hallway walls (analytic planes, world Y = const, 0 <= Z <= 2.2)
-        rays = _rays_cached(intr)
+        rays, ray_norm = _rays_cached(intr)
         for wy in self.scene.walls_y:
-            n_c = r.T @ np.array([0.0, 1.0, 0.0])
-            nr = rays @ n_c
+            # world Y and Z of the pixel rays are linear in t: Y = c_y + t (r^T e_y).ray
+            nr = rays @ r[1]
             with np.errstate(divide="ignore", invalid="ignore"):
                 t = (wy - c[1]) / nr
-            hit_z = c[2] + t * (rays @ (r.T @ np.array([0.0, 0.0, 1.0])))
+            hit_z = c[2] + t * (rays @ r[2])
             ok = (t > 0) & (hit_z > 0) & (hit_z < 2.2) & (t < depth)
-            depth = np.where(ok, t, depth)
-            cos = np.where(ok, np.abs(nr) / np.linalg.norm(rays, axis=-1), cos)
-            mat = np.where(ok, B.MAT_CLUTTER, mat).astype(np.int8)
-            side_img = np.where(ok, -1, side_img).astype(np.int8)
+            if np.any(ok):
+                depth[ok] = t[ok]
+                cos[ok] = np.abs(nr[ok]) / ray_norm[ok]
+                mat[ok] = B.MAT_CLUTTER
+                side_img[ok] = -1
         # floor + walker parts (static in the camera frame)
         closer = self.scene.static_depth < depth
-        depth = np.where(closer, self.scene.static_depth, depth)
-        cos = np.where(closer, self.scene.static_cos, cos)
-        mat = np.where(closer, self.scene.static_mat, mat).astype(np.int8)
-        side_img = np.where(closer, -1, side_img).astype(np.int8)
+        depth[closer] = self.scene.static_depth[closer]
+        cos[closer] = self.scene.static_cos[closer]
+        mat[closer] = self.scene.static_mat[closer]
+        side_img[closer] = -1
         rng = np.random.default_rng(int(self.frame_seeds[i]))
         model = p.sensor
         if not self.spec.sensor_noise:
@@ -415,8 +416,9 @@ class Session:
 
 
 @lru_cache(maxsize=8)
-def _rays_cached(intr: CameraIntrinsics) -> FloatArray:
-    return pixel_rays(intr)
+def _rays_cached(intr: CameraIntrinsics) -> tuple[FloatArray, FloatArray]:
+    rays = pixel_rays(intr)
+    return rays, np.linalg.norm(rays, axis=-1)
 
 
 # --------------------------------------------------------------------------- generation
@@ -641,10 +643,9 @@ def generate_session(spec: SessionSpec, *, rng: np.random.Generator) -> Session:
     n_frames = int(round(spec.duration * spec.fps))
     stamps = np.arange(n_frames) / spec.fps
     t_end = float(stamps[-1]) if n_frames else 0.0
-    feet = plan_footfalls(list(p.programme), p.gait, p.dims, start_x=p.start_x, t_end=t_end, rng=rng)
-    if p.start_y != 0.0:
-        for f in feet:
-            f.heel[0] = (f.heel[0][0], f.heel[0][1] + p.start_y)
+    feet = plan_footfalls(
+        list(p.programme), p.gait, p.dims, start_x=p.start_x, start_y=p.start_y, t_end=t_end, rng=rng
+    )
     kin = GaitKinematics(feet, p.gait, p.dims, t_start=0.0, t_end=t_end)
     wt, wx = _simulate_walker(kin, d0=p.user_distance, lag=p.walker_lag, t0=-1.0, t1=t_end + 1.0, start_y=p.start_y, start_x=p.start_x)
     body = kin.evaluate(stamps)

@@ -1,0 +1,332 @@
+"""Tests of walker_gait.core.gait (events, steps, summary) on kinematic walker sessions.
+
+The sessions come from :func:`walker_gait.bench.gait.simulate_gait`: feet planted in the
+world with a rocker roll-over, a walker following the user (so planted feet drift through
+the walker/camera frame), converted to the camera frame of a camera 0.5 m above the floor
+pitched down 0.5 rad.  Ground truth is exact by construction.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import re
+from dataclasses import fields, replace
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from walker_gait.bench.gait import (
+    SCENARIOS,
+    GaitSimSpec,
+    evaluate_gait,
+    match_events,
+    match_steps,
+    run_analyzer,
+    simulate_gait,
+)
+from walker_gait.core.gait import (
+    GaitAnalyzer,
+    GaitConfig,
+    GaitInputError,
+    GaitSummaryData,
+    _hinge_time,
+    summarize_steps,
+)
+from walker_gait.core.types import EventKind, FloorPlane, LegPose, Side, Step, TrackStatus
+
+REPO = Path(__file__).resolve().parents[2]
+
+
+def _run(spec: GaitSimSpec, seed: int = 0):  # type: ignore[no-untyped-def]
+    sim = simulate_gait(spec, rng=np.random.default_rng(seed))
+    ga = run_analyzer(sim.poses, sim.floor)
+    return sim, ga, evaluate_gait(sim.steps, sim.events, ga, fps=spec.fps)
+
+
+# ---------------------------------------------------------------------------- basics
+
+
+def test_hinge_fit_recovers_subframe_breakpoint() -> None:
+    t = np.arange(0.0, 0.5, 1 / 30)
+    tc = 0.2377
+    y_hs = 0.3 * np.maximum(tc - t, 0.0) + 0.02  # moving then flat (heel strike)
+    y_to = 0.5 * np.maximum(t - tc, 0.0) ** 2  # flat then accelerating (toe off)
+    assert abs(_hinge_time(t, [y_hs], rising=False, tc_lo=0.0, tc_hi=0.5) - tc) < 0.003
+    assert abs(_hinge_time(t, [y_to], rising=True, tc_lo=0.0, tc_hi=0.5) - tc) < 0.003
+
+
+def test_input_validation() -> None:
+    ga = GaitAnalyzer(GaitConfig())
+    floor = FloorPlane.from_camera_pose(height=0.5, pitch=0.5)
+    with pytest.raises(GaitInputError):
+        ga.update(LegPose(stamp=0.0, points=np.zeros((2, 4, 3))), floor)
+    ga.update(LegPose(stamp=1.0, points=np.ones((2, 5, 3))), floor)
+    with pytest.raises(GaitInputError):
+        ga.update(LegPose(stamp=1.0, points=np.ones((2, 5, 3))), floor)
+    with pytest.raises(GaitInputError):
+        GaitConfig(rest_speed_mps=-1.0)
+
+
+def test_frame_quality_rule() -> None:
+    ga = GaitAnalyzer()
+    floor = FloorPlane.from_camera_pose(height=0.5, pitch=0.5)
+    pts = np.ones((2, 5, 3))
+    assert ga.frame_quality(LegPose(stamp=0.0, points=pts, confidence=0.9), floor) == pytest.approx(0.9)
+    assert ga.frame_quality(LegPose(stamp=0.0, points=pts, status=TrackStatus.SEARCHING), floor) == 0.0
+    assert ga.frame_quality(
+        LegPose(stamp=0.0, points=pts, status=TrackStatus.DEGRADED, confidence=0.8), floor
+    ) == pytest.approx(0.4)
+    bad = pts.copy()
+    bad[1, 4, 0] = np.nan  # right toe lost
+    assert ga.frame_quality(LegPose(stamp=0.0, points=bad), floor) == 0.0
+
+
+# ---------------------------------------------------------------------------- accuracy
+
+
+@pytest.mark.parametrize("name", ["normal", "slow", "asymmetric"])
+def test_clean_walks_exact(name: str) -> None:
+    sim, ga, r = _run(SCENARIOS[name])
+    assert r["precision"] == 1.0 and r["recall"] == 1.0
+    assert r["step_length_mae"] < 0.003
+    assert r["step_width_mae"] < 0.003
+    assert r["hs_timing_median_abs_frames"] <= 1.0
+    assert r["to_timing_median_abs_frames"] <= 1.0
+    assert abs(r["cadence_error_pct"]) < 1.0
+    assert all(s.confidence > 0.95 for s in ga.steps)
+    # events alternate HS/TO per foot and are in time order
+    for side in Side:
+        kinds = [e.kind for e in ga.events if e.side == side]
+        assert all(kinds[i] != kinds[i + 1] for i in range(len(kinds) - 1))
+
+
+def test_temporal_parameters_match_ground_truth() -> None:
+    sim, ga, r = _run(SCENARIOS["asymmetric"])
+    for attr in ("step_time", "swing_time", "stance_time", "double_support_time"):
+        assert r[f"{attr}_mae"] < 0.05, attr  # 1.5 frames (DS sums two intervals = 4 event errors)
+    pairs, _, _ = match_steps(sim.steps, ga.steps)
+    for i, j in pairs:
+        g, d = sim.steps[i], ga.steps[j]
+        assert math.isnan(g.stride_time) == math.isnan(d.stride_time)
+
+
+def test_asymmetric_summary_symmetry_ratios() -> None:
+    sim, ga, _ = _run(SCENARIOS["asymmetric"])
+    s_det = ga.summary()
+    s_gt = summarize_steps(sim.steps)
+    assert s_det.step_count == len(sim.steps)
+    assert s_det.step_length_symmetry == pytest.approx(s_gt.step_length_symmetry, rel=0.02)
+    assert s_det.swing_time_symmetry == pytest.approx(s_gt.swing_time_symmetry, rel=0.1)
+    assert s_det.step_length_symmetry > 1.2  # left steps are longer in this scenario
+
+
+@pytest.mark.parametrize("name", ["normal", "slow", "stop_and_go", "variable"])
+def test_noise_1cm_robustness(name: str) -> None:
+    spec = replace(SCENARIOS[name], noise_m=0.01)
+    tp = gt = det = 0
+    sl, sw, hs = [], [], []
+    for seed in range(2):
+        sim, ga, r = _run(spec, seed)
+        tp += r["matched"]
+        gt += r["gt_steps"]
+        det += r["det_steps"]
+        sl.append(r["step_length_mae"])
+        sw.append(r["step_width_mae"])
+        hs.append(r["hs_timing_median_abs_frames"])
+    assert tp / det >= 0.98 and tp / gt >= 0.98
+    assert np.mean(sl) <= 0.015
+    assert np.mean(sw) <= 0.015
+    assert np.median(hs) <= 1.0
+
+
+# ---------------------------------------------------------------------------- no phantom steps
+
+
+@pytest.mark.parametrize("noise", [0.0, 0.01, 0.02])
+def test_stand_still_3s_has_no_steps(noise: float) -> None:
+    spec = GaitSimSpec(bouts=(("stand", 3.0),), noise_m=noise)
+    sim, ga, _ = _run(spec, seed=3)
+    assert ga.steps == [] and ga.events == []
+    assert ga.summary().step_count == 0
+
+
+def test_shuffling_in_place_has_no_steps() -> None:
+    spec = GaitSimSpec(
+        bouts=(("stand", 4.0),),
+        shuffle=((0.5, 1.3, 0, 0.03), (1.6, 2.2, 1, 0.025), (2.5, 3.5, 0, 0.02)),
+        noise_m=0.005,
+    )
+    sim, ga, _ = _run(spec, seed=4)
+    assert ga.steps == []
+
+
+def test_walker_moving_with_feet_still_has_no_steps() -> None:
+    """The walker rolls 40 cm back and forth while the user stands: feet drift in the camera
+    frame together, which must not look like steps."""
+    sim = simulate_gait(GaitSimSpec(bouts=(("stand", 4.0),)), rng=np.random.default_rng(5))
+    rot, off = sim.floor.walker_transform()
+    poses = []
+    for p in sim.poses:
+        shift = np.array([0.2 * math.sin(2 * math.pi * p.stamp / 2.0) + 0.2, 0.0, 0.0])  # walker frame
+        poses.append(replace(p, points=p.points + rot.T @ shift))
+    ga = run_analyzer(poses, sim.floor)
+    assert ga.steps == [] and ga.events == []
+
+
+def test_stop_and_go_resumes_cleanly() -> None:
+    spec = SCENARIOS["stop_and_go"]  # 6 steps, 3 s stop, 7 steps
+    sim, ga, r = _run(spec)
+    assert r["precision"] == 1.0 and r["recall"] == 1.0
+    assert r["step_length_mae"] < 0.003
+    t_stop0 = sim.steps[5].stamp
+    t_stop1 = sim.steps[6].stamp
+    assert not [e for e in ga.events if t_stop0 + 0.3 < e.stamp < t_stop1 - 1.0]
+    # the first step after the stop includes the pause: excluded from cadence
+    s = ga.summary()
+    assert abs(s.cadence - summarize_steps(sim.steps).cadence) / s.cadence < 0.02
+    assert 60.0 / s.cadence == pytest.approx(0.6, rel=0.03)
+
+
+# ---------------------------------------------------------------------------- degraded input
+
+
+def test_lost_tracking_mid_step_gives_low_confidence_step() -> None:
+    base = SCENARIOS["normal"]
+    sim0 = simulate_gait(base, rng=np.random.default_rng(0))
+    hs = [s.stamp for s in sim0.steps]
+    k = 5  # lose tracking for 0.3 s inside the swing that ends at step k
+    gap = (hs[k] - 0.35, hs[k] - 0.05)
+    sim, ga, r = _run(replace(base, lost=(gap,)))
+    assert r["precision"] == 1.0 and r["recall"] == 1.0  # not invented, not dropped
+    pairs, _, _ = match_steps(sim.steps, ga.steps)
+    conf = {i: ga.steps[j].confidence for i, j in pairs}
+    assert conf[k] < 0.6
+    assert all(c > 0.9 for i, c in conf.items() if abs(i - k) > 1)
+    assert ga.lost_intervals == []  # short gap: bridged, no reset
+
+
+def test_long_tracking_loss_resets_without_inventing_steps() -> None:
+    base = replace(SCENARIOS["normal"], bouts=(("stand", 1.0), ("walk", 16), ("stand", 1.0)))
+    sim0 = simulate_gait(base, rng=np.random.default_rng(0))
+    hs = [s.stamp for s in sim0.steps]
+    gap = (hs[5] + 0.1, hs[8] + 0.1)  # ~1.8 s: three footfalls never seen
+    sim, ga, r = _run(replace(base, lost=(gap,)))
+    assert len(ga.lost_intervals) == 1
+    pairs, _, unmatched_det = match_steps(sim.steps, ga.steps)
+    assert unmatched_det == []  # nothing invented
+    lost = [i for i, s in enumerate(sim.steps) if gap[0] <= s.stamp <= gap[1]]
+    assert len(pairs) >= len(sim.steps) - len(lost) - 2  # everything else recovered
+
+
+def test_degraded_frames_lower_confidence() -> None:
+    base = SCENARIOS["normal"]
+    sim0 = simulate_gait(base, rng=np.random.default_rng(0))
+    t = sim0.steps[6].stamp
+    sim, ga, r = _run(replace(base, degraded=((t - 0.5, t + 0.2),)))
+    assert r["precision"] == 1.0 and r["recall"] == 1.0
+    pairs, _, _ = match_steps(sim.steps, ga.steps)
+    conf = {i: ga.steps[j].confidence for i, j in pairs}
+    assert conf[6] < 0.6 and conf[2] > 0.9
+
+
+# ---------------------------------------------------------------------------- timing, latency
+
+
+def test_subframe_heel_strike_timing() -> None:
+    # step time 0.61 s at 30 fps: heel strikes fall at every sub-frame phase
+    spec = GaitSimSpec(step_time=(0.61, 0.61), bouts=(("stand", 1.0), ("walk", 14), ("stand", 1.0)))
+    sim, ga, r = _run(spec)
+    ep, _, _ = match_events(sim.events, ga.events, kind=EventKind.HEEL_STRIKE)
+    g = [e for e in sim.events if e.kind == EventKind.HEEL_STRIKE]
+    d = [e for e in ga.events if e.kind == EventKind.HEEL_STRIKE]
+    err = np.array([d[j].stamp - g[i].stamp for i, j in ep])
+    assert np.median(np.abs(err)) < 0.7 / spec.fps  # measured 0.54 frame on this model
+    frac = np.array([(e.stamp * spec.fps) % 1.0 for e in d])
+    assert np.ptp(frac) > 0.5  # stamps are not snapped to frames
+
+
+def test_online_latency_is_bounded() -> None:
+    sim = simulate_gait(SCENARIOS["normal"], rng=np.random.default_rng(0))
+    ga = GaitAnalyzer()
+    lat_ev, lat_st = [], []
+    for p in sim.poses:
+        ev, st = ga.update(p, sim.floor)
+        lat_ev += [p.stamp - e.stamp for e in ev]
+        lat_st += [p.stamp - s.stamp for s in st]
+    ev, st = ga.finish()
+    assert max(lat_ev) < 0.6
+    assert max(lat_st) < 0.8
+    assert len(ga.steps) == len(sim.steps)
+
+
+def test_odometry_rotates_footprints_consistently() -> None:
+    """With odometry of a walker that does not turn the results equal the odometry-free ones."""
+    sim = simulate_gait(SCENARIOS["normal"], rng=np.random.default_rng(0))
+    ga = GaitAnalyzer()
+    for p in sim.poses:
+        ga.update_odometry(p.stamp, 0.0, 0.0, 0.3)  # constant heading, arbitrary world yaw
+        ga.update(p, sim.floor)
+    ga.finish()
+    ref = run_analyzer(sim.poses, sim.floor)
+    assert len(ga.steps) == len(ref.steps)
+    for a, b in zip(ga.steps, ref.steps):
+        assert a.step_length == pytest.approx(b.step_length, abs=1e-6)
+        assert a.step_width == pytest.approx(b.step_width, abs=1e-6)
+
+
+# ---------------------------------------------------------------------------- summary
+
+
+def _msg_fields(name: str) -> list[str]:
+    text = (REPO / "msg_defs" / "msg" / name).read_text()
+    out = []
+    for line in text.splitlines():
+        line = line.split("#", 1)[0].strip()
+        m = re.match(r"^([A-Za-z0-9_/\[\]]+)\s+([a-z_0-9]+)$", line)
+        if m and m.group(2) != "header":
+            out.append(m.group(2))
+    return out
+
+
+def test_summary_mirrors_message_and_is_json() -> None:
+    sim, ga, _ = _run(SCENARIOS["variable"])
+    names = {f.name for f in fields(GaitSummaryData)}
+    missing = [f for f in _msg_fields("GaitSummary.msg") if f not in names]
+    assert missing == []
+    s = ga.summary()
+    assert s.scope == GaitSummaryData.SESSION and s.window_duration == 0.0
+    w = ga.summary(window_s=5.0)
+    assert w.scope == GaitSummaryData.WINDOW and w.window_duration == 5.0
+    assert 0 < w.step_count < s.step_count
+    d = json.loads(json.dumps(s.to_dict(), allow_nan=False))
+    assert d["step_count"] == s.step_count and len(d["stance_percent_side"]) == 2
+    gt = summarize_steps(sim.steps)
+    assert s.cadence == pytest.approx(gt.cadence, rel=0.02)
+    assert s.gait_speed == pytest.approx(gt.gait_speed, rel=0.02)
+    assert s.step_width_mean == pytest.approx(0.16, abs=0.01)
+    for side in range(2):
+        assert s.stance_percent_side[side] + s.swing_percent_side[side] == pytest.approx(100.0, abs=0.5)
+        assert s.stance_percent_side[side] == pytest.approx(gt.stance_percent_side[side], abs=3.0)
+    assert s.double_support_percent == pytest.approx(gt.double_support_percent, abs=3.0)
+    empty = GaitAnalyzer().summary()
+    assert empty.step_count == 0 and math.isnan(empty.cadence)
+    assert json.dumps(empty.to_dict(), allow_nan=False)
+
+
+def test_step_fields_follow_message() -> None:
+    names = {f.name for f in fields(Step)}
+    mapping = {"foot": "side", "step_index": "index"}
+    assert all(mapping.get(f, f) in names for f in _msg_fields("Step.msg"))
+
+
+def test_matcher_pairs_by_time_and_foot() -> None:
+    mk = lambda t, s: Step(stamp=t, side=Side(s), index=0, step_length=0, step_width=0, step_time=0,  # noqa: E731
+                           stride_length=0, stride_time=0, stance_time=0, swing_time=0,
+                           single_support_time=0, double_support_time=0)
+    gt = [mk(1.0, 0), mk(1.5, 1), mk(2.0, 0)]
+    det = [mk(1.52, 1), mk(1.03, 0), mk(2.6, 0), mk(1.1, 0)]
+    pairs, ug, ud = match_steps(gt, det, max_dt=0.25)
+    assert sorted(pairs) == [(0, 1), (1, 0)]
+    assert ug == [2] and sorted(ud) == [2, 3]

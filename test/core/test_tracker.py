@@ -1,0 +1,126 @@
+"""Tests of walker_gait.core.tracker on short own-model synthetic sequences.
+
+The data are rendered with the tracker's own leg model (walker_gait.bench.tracker.own_sequence),
+so accuracy here is optimistic; the bench reports the generator-based figures.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from walker_gait.bench.tracker import KINECT, own_sequence
+from walker_gait.core import leg_model as lm
+from walker_gait.core.tracker import (
+    DEFAULT,
+    PAPER,
+    LegTracker,
+    TrackerConfig,
+    TrackerInputError,
+    preset,
+)
+from walker_gait.core.types import JOINT_NAMES, FloorPlane, TrackStatus
+
+FAST = preset("default", n_particles=64, init_rounds=4)
+
+
+@pytest.fixture(scope="module")
+def seq():  # noqa: ANN201
+    return own_sequence(n_frames=24, rng=np.random.default_rng(1))
+
+
+def _run(tracker: LegTracker, frames):  # noqa: ANN001, ANN202
+    return [tracker.update(stamp=f.stamp, points=f.points, depth_fg=f.depth, floor=f.floor) for f in frames]
+
+
+def test_presets() -> None:
+    assert PAPER.n_particles == 5000 and PAPER.cue2d_stride == 1 and PAPER.fg_fraction == 0.1
+    assert PAPER.n_skeleton == 10 and not PAPER.partitioned and PAPER.n_layers == 1
+    assert PAPER.lambda_3d == pytest.approx(200.0) and PAPER.lambda_2d == pytest.approx(1000 / 3)
+    assert DEFAULT.partitioned and DEFAULT.n_layers >= 2
+    with pytest.raises(ValueError):
+        TrackerConfig(cue="rgb")  # type: ignore[arg-type]
+    with pytest.raises(ValueError):
+        preset("nope")
+
+
+def test_tracks_short_sequence_without_swaps(seq) -> None:  # noqa: ANN001
+    tr = LegTracker(FAST, KINECT, rng=np.random.default_rng(0))
+    poses = _run(tr, seq.frames)
+    errs = np.array([np.linalg.norm(p.points - f.gt, axis=-1).mean() for p, f in zip(poses, seq.frames)])
+    # after convergence (skip the first 4 frames), mean joint error below 7 cm (64 particles)
+    assert errs[4:].mean() < 0.07, errs
+    for p in poses:
+        # no swap: the LEFT estimate is on the image's right (+x) like the ground truth
+        assert p.points[0, :3, 0].mean() > p.points[1, :3, 0].mean()
+        assert p.angles.shape == (len(JOINT_NAMES),)
+        assert p.segments is not None and p.segments.shape == (2, 3, 2, 3)
+        assert p.radii is not None and p.radii.shape == (2, 3, 2)
+        assert p.visibility is not None and p.visibility.shape == (2, 3)
+        assert 0.0 <= p.confidence <= 1.0
+        assert 1.0 <= p.ess <= FAST.n_particles + 1e-9
+    assert poses[-1].status in (TrackStatus.TRACKING, TrackStatus.DEGRADED)
+    # every particle respects the model constraints after predict/resample
+    x = tr.particles
+    assert x is not None and not np.any(lm.constraint_violations(x))
+
+
+@pytest.mark.parametrize("cue", ["3d", "2d"])
+def test_single_cues_run(seq, cue: str) -> None:  # noqa: ANN001
+    tr = LegTracker(preset("default", n_particles=32, init_rounds=2, cue=cue), KINECT, rng=np.random.default_rng(0))
+    poses = _run(tr, seq.frames[:4])
+    assert np.all(np.isfinite(poses[-1].points))
+
+
+def test_paper_preset_runs_small(seq) -> None:  # noqa: ANN001
+    cfg = preset("paper", n_particles=40, cue2d_stride=4)
+    tr = LegTracker(cfg, KINECT, rng=np.random.default_rng(0))
+    poses = _run(tr, seq.frames[:3])
+    assert np.all(np.isfinite(poses[-1].points))
+
+
+def test_deterministic_with_seed(seq) -> None:  # noqa: ANN001
+    cfg = preset("default", n_particles=32, init_rounds=2)
+    a = _run(LegTracker(cfg, KINECT, rng=np.random.default_rng(7)), seq.frames[:5])
+    b = _run(LegTracker(cfg, KINECT, rng=np.random.default_rng(7)), seq.frames[:5])
+    for pa, pb in zip(a, b):
+        np.testing.assert_array_equal(pa.points, pb.points)
+        np.testing.assert_array_equal(pa.angles, pb.angles)
+
+
+def test_no_user_and_reacquisition(seq) -> None:  # noqa: ANN001
+    tr = LegTracker(FAST, KINECT, rng=np.random.default_rng(3))
+    _run(tr, seq.frames[:6])
+    empty_depth = np.full((KINECT.height, KINECT.width), np.nan, np.float32)
+    floor = seq.frames[0].floor
+    for k in range(3):
+        pose = tr.update(stamp=1.0 + k, points=np.zeros((0, 3), np.float32), depth_fg=empty_depth, floor=floor)
+        assert pose.status == TrackStatus.NO_USER
+        assert np.all(np.isnan(pose.points))
+    assert tr.particles is None
+    poses = _run(tr, seq.frames[8:20])
+    errs = [np.linalg.norm(p.points - f.gt, axis=-1).mean() for p, f in zip(poses, seq.frames[8:20])]
+    assert poses[0].status in (TrackStatus.SEARCHING, TrackStatus.TRACKING)
+    assert np.mean(errs[-5:]) < 0.08, errs
+
+
+def test_facing_forward_mounting_keeps_identity() -> None:
+    s = own_sequence(n_frames=8, rng=np.random.default_rng(2), mounting="facing_forward")
+    # camera behind the user: the anatomical LEFT leg is on the image's LEFT (-x camera)
+    assert s.frames[0].gt[0, :3, 0].mean() < s.frames[0].gt[1, :3, 0].mean()
+    tr = LegTracker(FAST, KINECT, rng=np.random.default_rng(0), mounting="facing_forward")
+    poses = _run(tr, s.frames)
+    for p, f in zip(poses[3:], s.frames[3:]):
+        assert p.points[0, :3, 0].mean() < p.points[1, :3, 0].mean()
+        assert np.linalg.norm(p.points - f.gt, axis=-1).mean() < 0.1
+    with pytest.raises(ValueError):
+        LegTracker(DEFAULT, KINECT, rng=np.random.default_rng(0), mounting="sideways")
+
+
+def test_bad_input_raises() -> None:
+    tr = LegTracker(FAST, KINECT, rng=np.random.default_rng(0))
+    floor = FloorPlane.from_camera_pose(height=0.7, pitch=0.5)
+    with pytest.raises(TrackerInputError):
+        tr.update(stamp=0.0, points=np.zeros((5, 2)), depth_fg=np.zeros((480, 640), np.float32), floor=floor)
+    with pytest.raises(TrackerInputError):
+        tr.update(stamp=0.0, points=np.zeros((5, 3)), depth_fg=np.zeros((10, 10), np.float32), floor=floor)
