@@ -1,0 +1,167 @@
+"""End-to-end accuracy and speed on synthetic sessions with ground truth.
+
+The whole offline pipeline (``FrameProcessor``: decode, back-project, segment, track, gait) runs on the
+rendered depth of a generated session, exactly as ``walker-gait process`` would, and its output is scored
+against the session's ground truth: 3D joint errors, left/right swaps, step detection, step length/width
+errors (the seed paper's Tables 2-3 measure), heel-strike timing, cadence, and per-stage time.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from types import SimpleNamespace
+from typing import Any
+
+import numpy as np
+
+from walker_gait.core.types import LEG_POINTS, Step
+
+STAGES = ("depth", "segmentation", "tracker", "gait")
+
+
+@dataclass
+class Score:
+    scenario: str
+    preset: str
+    cue: str
+    frames: int
+    ms_per_frame: dict[str, float] = field(default_factory=dict)
+    joint_err_cm: dict[str, float] = field(default_factory=dict)
+    frames_over_10cm_pct: float = float("nan")
+    swap_frames: int = 0
+    gt_steps: int = 0
+    detected_steps: int = 0
+    matched_steps: int = 0
+    precision: float = float("nan")
+    recall: float = float("nan")
+    step_length_err_cm: tuple[float, float] = (float("nan"), float("nan"))  # mean, SD of |error|
+    step_width_err_cm: tuple[float, float] = (float("nan"), float("nan"))
+    hs_timing_median_frames: float = float("nan")
+    cadence_err_pct: float = float("nan")
+    steps_during_standstill: int = 0
+    recovery_s: float = float("nan")
+
+    @property
+    def fps(self) -> float:
+        total = sum(self.ms_per_frame.values())
+        return 1000.0 / total if total > 0 else float("nan")
+
+
+def _gt_as_steps(session: Any) -> list[Step]:
+    return [Step(stamp=s.stamp, side=s.side, index=s.index, step_length=s.step_length, step_width=s.step_width,
+                 step_time=s.step_time, stride_length=s.stride_length, stride_time=s.stride_time,
+                 stance_time=s.stance_time, swing_time=s.swing_time, single_support_time=s.single_support_time,
+                 double_support_time=s.double_support_time) for s in session.steps]
+
+
+@dataclass
+class Rendered:
+    """A session's rendered 16UC1 frames and, per frame and leg, the count of valid leg pixels."""
+
+    frames: list[np.ndarray]
+    visible_pixels: np.ndarray  # (T, 2)
+    seconds: float
+
+    def trackable(self, min_pixels: int = 200) -> np.ndarray:
+        """(T,) True where both legs show at least ``min_pixels`` valid pixels (at full 640x480 scale)."""
+        return (self.visible_pixels >= min_pixels).all(axis=1)
+
+
+def render(session: Any, max_frames: int | None = None) -> Rendered:
+    """Render (once) a session's frames, to score several configurations on the same data."""
+    n = len(session) if max_frames is None else min(len(session), max_frames)
+    t0 = time.perf_counter()
+    frames, visible = [], np.zeros((n, 2), dtype=np.int64)
+    for i in range(n):
+        fr = session.frame(i)
+        mm = session.depth_mm(i)
+        valid = mm > 0
+        visible[i] = [np.count_nonzero(valid & (fr.side == 0)), np.count_nonzero(valid & (fr.side == 1))]
+        frames.append(mm)
+    return Rendered(frames=frames, visible_pixels=visible, seconds=time.perf_counter() - t0)
+
+
+def evaluate(session: Any, *, preset: str = "default", cue: str | None = None, seed: int = 0,
+             max_frames: int | None = None, overrides: dict[str, Any] | None = None,
+             rendered: Rendered | None = None) -> Score:
+    """Run the pipeline on ``session`` (a ``walker_gait.synth.Session``) and score it."""
+    import dataclasses
+
+    from walker_gait.bench.gait import match_steps
+    from walker_gait.core.tracker import preset as tracker_preset
+    from walker_gait.pipeline import FrameProcessor, PipelineOptions
+
+    tracker = tracker_preset(preset)
+    changes = dict(overrides or {})
+    if cue is not None:
+        changes["cue"] = cue
+    if changes:
+        tracker = dataclasses.replace(tracker, **changes)
+    proc = FrameProcessor(PipelineOptions(preset=preset, tracker=tracker, seed=seed, write_mcap=False,
+                                          write_report=False))
+    proc.set_camera_info(SimpleNamespace(**session.camera_info()))
+    rendered = rendered if rendered is not None else render(session, max_frames)
+    n = len(rendered.frames) if max_frames is None else min(len(rendered.frames), max_frames)
+    intr = session.intrinsics
+    timing = {k: 0.0 for k in STAGES}
+    poses = []
+    steps: list[Step] = []
+    for i in range(n):
+        depth_mm = rendered.frames[i]
+        res = proc.process(stamp=float(session.stamps[i]), data=depth_mm, encoding="16UC1", width=intr.width,
+                           height=intr.height, step=intr.width * 2, is_bigendian=False)
+        for k in STAGES:
+            timing[k] += res.timings_ms[k]
+        poses.append(res.pose)
+        steps.extend(res.steps)
+    steps.extend(proc.finish()[1])
+    score = Score(scenario=session.spec.scenario, preset=preset, cue=tracker.cue, frames=n,
+                  ms_per_frame={k: v / max(n, 1) for k, v in timing.items()})
+    # --- joints: frames where both legs are in view
+    truth = np.asarray(session.leg_points[:n])
+    est = np.stack([p.points for p in poses])
+    scale = (intr.width * intr.height) / (640 * 480)
+    vis = rendered.trackable(min_pixels=max(20, int(200 * scale)))[:n]
+    err = np.linalg.norm(est - truth, axis=-1)  # T, 2, 5
+    swapped = np.linalg.norm(est[:, ::-1] - truth, axis=-1)
+    if vis.any():
+        score.joint_err_cm = {name: float(np.nanmean(err[vis][:, :, k]) * 100) for k, name in enumerate(LEG_POINTS)}
+        per_frame = np.nanmean(err[vis], axis=(1, 2))
+        score.frames_over_10cm_pct = float(np.mean(~(per_frame <= 0.10)) * 100)
+        lower = slice(1, 5)  # knee..toe: the observable points
+        score.swap_frames = int(np.sum(np.nanmean(swapped[vis][:, :, lower], axis=(1, 2)) + 0.05
+                                       < np.nanmean(err[vis][:, :, lower], axis=(1, 2))))
+    # recovery after the user appears (absent start): first time the error stays < 10 cm
+    if not vis.all() and vis.any():
+        first = int(np.argmax(vis))
+        ok = np.nanmean(err, axis=(1, 2)) < 0.10
+        for j in range(first, n):
+            if ok[j:j + 5].all():
+                score.recovery_s = float(session.stamps[j] - session.stamps[first])
+                break
+    # --- steps
+    t_end = float(session.stamps[n - 1])
+    gt = [s for s in _gt_as_steps(session) if s.stamp <= t_end]
+    score.gt_steps, score.detected_steps = len(gt), len(steps)
+    pairs, _missed, _extra = match_steps(gt, steps)
+    score.matched_steps = len(pairs)
+    score.precision = len(pairs) / len(steps) if steps else float("nan")
+    score.recall = len(pairs) / len(gt) if gt else float("nan")
+    le = np.array([abs(steps[d].step_length - gt[t].step_length) for t, d in pairs
+                   if np.isfinite(gt[t].step_length)]) * 100
+    we = np.array([abs(steps[d].step_width - gt[t].step_width) for t, d in pairs
+                   if np.isfinite(gt[t].step_width)]) * 100
+    if le.size:
+        score.step_length_err_cm = (float(le.mean()), float(le.std()))
+    if we.size:
+        score.step_width_err_cm = (float(we.mean()), float(we.std()))
+    dt = np.array([abs(steps[d].stamp - gt[t].stamp) for t, d in pairs])
+    if dt.size:
+        score.hs_timing_median_frames = float(np.median(dt) * session.spec.fps)
+    if len(gt) >= 4 and len(steps) >= 4:
+        def cadence(ss: list[Step]) -> float:
+            ts = sorted(s.stamp for s in ss)
+            return 60.0 * (len(ts) - 1) / (ts[-1] - ts[0])
+        score.cadence_err_pct = float((cadence(steps) / cadence(gt) - 1) * 100)
+    return score
