@@ -1,7 +1,7 @@
 """Drive the live node graph with a recording and watch it from outside, like a dashboard would.
 
-``run_live(path)`` starts ``walker-gait run --replay PATH`` (one OS process per node, real DDS), subscribes
-to the depth input, ``joint_states``, ``steps`` and ``/diagnostics`` in this process, and reports what
+``run_live(path)`` starts the node graph with ``walker-gait run`` (one OS process per node, real DDS), waits until
+every link is subscribed, replays PATH into it with ``walker-gait replay``, subscribes
 came out: the steps, the latency from a depth image's arrival to the arrival of the JointState with the
 same stamp, frames in vs out, and the frames the nodes reported as skipped.
 """
@@ -91,12 +91,25 @@ def run_live(path: Path, *, rate: float = 1.0, timeout_s: float = 120.0, settle_
                              lambda d: result.steps.append(M.step_from_msg(M.deserialize(d, M.STEP))), EVENTS,
                              raw=True)
     node.create_subscription(rclpy_type(M.DIAGNOSTIC_ARRAY), "/diagnostics", on_diag, DIAGNOSTICS, raw=True)
-    cmd = [sys.executable, "-m", "walker_gait.cli", "run", "--replay", str(path), "--rate", str(rate)]
     env = dict(os.environ, PYTHONUNBUFFERED="1")
-    t0 = time.monotonic()
-    run = subprocess.Popen(cmd, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
+    graph = [sys.executable, "-m", "walker_gait.cli", "run", "--nodes",
+             "depth_to_cloud,floor_segmentation,leg_tracker,gait_analyzer"]
+    run = subprocess.Popen(graph, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
                            start_new_session=True)
+    replay: subprocess.Popen[str] | None = None
+    t0 = time.monotonic()
     try:
+        # wait until every link of the graph is subscribed, so no frame is lost at the start
+        links = ("/depth/image_raw", "/depth/camera_info", "/points", "/foreground/points", "/foreground/mask",
+                 "/floor_plane", "/leg_track")
+        while time.monotonic() - t0 < 60:
+            rclpy.spin_once(node, timeout_sec=0.1)
+            if all(node.count_subscribers(t) >= (2 if t in ("/depth/image_raw",) else 1) for t in links):
+                break
+        replay = subprocess.Popen([sys.executable, "-m", "walker_gait.cli", "replay", str(path), "--rate", str(rate),
+                                   "--start-delay", "1.0"], env=env, stdout=subprocess.DEVNULL,
+                                  stderr=subprocess.PIPE, text=True, start_new_session=True)
+        t0 = time.monotonic()
         deadline = t0 + timeout_s
         last_progress = time.monotonic()
         seen = 0
@@ -118,6 +131,12 @@ def run_live(path: Path, *, rate: float = 1.0, timeout_s: float = 120.0, settle_
         while time.monotonic() < end:
             rclpy.spin_once(node, timeout_sec=0.05)
     finally:
+        if replay is not None and replay.poll() is None:
+            replay.send_signal(signal.SIGINT)
+            try:
+                replay.wait(timeout=10)
+            except subprocess.TimeoutExpired:
+                os.killpg(replay.pid, signal.SIGKILL)
         if run.poll() is None:
             run.send_signal(signal.SIGINT)
             try:

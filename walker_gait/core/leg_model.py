@@ -71,14 +71,18 @@ THIGH_TAPER = 0.72
 """Distal/proximal radius ratio of the thigh."""
 CALF_TAPER = 0.62
 """Distal/proximal radius ratio of the calf."""
-FOOT_HEEL_RADIUS = 0.17
-"""Foot half-cylinder radius at the heel, as a fraction of foot length."""
-FOOT_TOE_RADIUS = 0.12
-"""Foot half-cylinder radius at the toe, as a fraction of foot length."""
-ANKLE_HEIGHT = 0.27
-"""Ankle joint centre height above the sole, fraction of foot length."""
-HEEL_BACK = 0.20
-"""Horizontal heel-to-ankle distance, fraction of foot length."""
+FOOT_HEEL_RADIUS = 0.28
+"""Foot half-cylinder radius at the heel, as a fraction of foot length (~7.5 cm for a 27 cm
+shoe: an effective radius of the ~10 cm tall, ~7 cm wide heel counter, so that the model's
+surface reaches the observed top of the shoe and the ankle without pitching the foot)."""
+FOOT_TOE_RADIUS = 0.10
+"""Foot half-cylinder radius at the toe, as a fraction of foot length (~2.7 cm: toe box)."""
+ANKLE_HEIGHT = 0.35
+"""Ankle joint centre height above the sole, fraction of foot length (adult anthropometry:
+ankle centre ~9.5 cm above the sole of a 27 cm shoe)."""
+HEEL_BACK = 0.24
+"""Horizontal heel-to-ankle distance, fraction of foot length (ankle centre ~6.5 cm in front of
+the posterior-most sole point of a 27 cm shoe; heel-to-ankle distance ~11.5 cm)."""
 
 COLLISION_SLACK = 0.75
 """Two capsules collide when their axes are closer than this times the sum of their mean radii
@@ -193,22 +197,30 @@ class BodyFrame:
         return (np.asarray(pts, dtype=np.float64) - self.body_to_cam_trans) @ self.body_to_cam_rot
 
 
-def _rx(a: FloatArray) -> FloatArray:
+def _rot(a: FloatArray, i: int, j: int) -> FloatArray:
+    """``(..., 3, 3)`` rotations by ``a`` in the (i, j) plane (filled in place: no np.stack)."""
+    a = np.asarray(a, dtype=np.float64)
     c, s = np.cos(a), np.sin(a)
-    o, z = np.ones_like(a), np.zeros_like(a)
-    return np.stack([np.stack([o, z, z], -1), np.stack([z, c, -s], -1), np.stack([z, s, c], -1)], -2)
+    out = np.zeros(a.shape + (3, 3))
+    k = 3 - i - j
+    out[..., k, k] = 1.0
+    out[..., i, i] = c
+    out[..., j, j] = c
+    out[..., i, j] = -s
+    out[..., j, i] = s
+    return out
+
+
+def _rx(a: FloatArray) -> FloatArray:
+    return _rot(a, 1, 2)
 
 
 def _ry(a: FloatArray) -> FloatArray:
-    c, s = np.cos(a), np.sin(a)
-    o, z = np.ones_like(a), np.zeros_like(a)
-    return np.stack([np.stack([c, z, s], -1), np.stack([z, o, z], -1), np.stack([-s, z, c], -1)], -2)
+    return _rot(a, 2, 0)
 
 
 def _rz(a: FloatArray) -> FloatArray:
-    c, s = np.cos(a), np.sin(a)
-    o, z = np.ones_like(a), np.zeros_like(a)
-    return np.stack([np.stack([c, -s, z], -1), np.stack([s, c, z], -1), np.stack([z, z, o], -1)], -2)
+    return _rot(a, 0, 1)
 
 
 @dataclass(frozen=True)

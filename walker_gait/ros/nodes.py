@@ -235,19 +235,16 @@ class GaitAnalyzerNode(WalkerNode):
         self.window_s = float(self.declare_parameter("summary_window", 10.0).value)
         use_odom = bool(self.declare_parameter("use_odometry", False).value)
         self.analyzer = GaitAnalyzer(self.config)
-        self.floor: Any = None
+        self.sync = StampSync(("track", "floor"))
         self.frame_id = ""
         self.pub_event = self.raw_publisher(M.GAIT_EVENT, "gait_events", EVENTS)
         self.pub_step = self.raw_publisher(M.STEP, "steps", EVENTS)
         self.pub_summary = self.raw_publisher(M.GAIT_SUMMARY, "gait_summary", LATCHED)
         self.pub_window = self.raw_publisher(M.GAIT_SUMMARY, "gait_summary/rolling", LATCHED)
-        self.raw_subscription(M.FLOOR_PLANE, "floor_plane", self.on_floor, STREAM_IN)
-        self.raw_subscription(M.LEG_TRACK, "leg_track", self.on_track, STREAM_IN)
+        self.raw_subscription(M.FLOOR_PLANE, "floor_plane", lambda m: self.on_part("floor", m), STREAM_IN)
+        self.raw_subscription(M.LEG_TRACK, "leg_track", lambda m: self.on_part("track", m), STREAM_IN)
         if use_odom:
             self.raw_subscription(M.ODOMETRY, "odom", self.on_odom, STREAM_IN)
-
-    def on_floor(self, msg: Any) -> None:
-        self.floor = M.floor_from_msg(msg)
 
     def on_odom(self, msg: Any) -> None:
         q = msg.pose.pose.orientation
@@ -255,12 +252,16 @@ class GaitAnalyzerNode(WalkerNode):
         self.analyzer.update_odometry(M.stamp_to_s(msg.header.stamp), float(msg.pose.pose.position.x),
                                       float(msg.pose.pose.position.y), yaw)
 
-    def on_track(self, msg: Any) -> None:
-        if self.floor is None:
-            return  # the floor_plane of this frame normally arrives first; nothing to analyse without one
+    def on_part(self, name: str, msg: Any) -> None:
+        parts = self.sync.add(name, msg)
+        if parts is not None:
+            self.on_frame(parts["track"], M.floor_from_msg(parts["floor"]))
+
+    def on_frame(self, msg: Any, floor: Any) -> None:
+        """One frame: its LegTrack and the FloorPlane with the same stamp."""
         self.frame_id = msg.header.frame_id
         pose = M.leg_pose_from_track(msg)
-        events, steps = self.analyzer.update(pose, self.floor)
+        events, steps = self.analyzer.update(pose, floor)
         self.publish_results(events, steps, msg.header)
         self.frames_ok += 1
 
