@@ -14,7 +14,7 @@ pytestmark = [pytest.mark.ros, pytest.mark.slow]
 def walking_session(tmp_path_factory: pytest.TempPathFactory) -> Path:
     from walker_gait.synth import SessionSpec, generate_session, write_session
 
-    session = generate_session(SessionSpec.preset("normal", duration=6.0, scale=0.5),
+    session = generate_session(SessionSpec.preset("normal", duration=5.0, scale=0.5),
                                rng=np.random.default_rng(11))
     path = tmp_path_factory.mktemp("session") / "walk.mcap"
     write_session(session, path, fmt="mcap", encoding="16UC1")
@@ -27,7 +27,9 @@ def test_replay_into_live_graph_matches_offline_process(walking_session: Path, t
 
     offline = process_recording(walking_session, tmp_path / "out", options=PipelineOptions(seed=0), progress=False)
     assert len(offline.steps) >= 3, "the session must contain steps for the comparison to mean anything"
-    live = run_live(walking_session, rate=0.5, timeout_s=240)
+    # Slow enough that no stage drops a frame on a 2-core machine shared by 6 processes: by design the
+    # live graph drops frames rather than queueing them when a node is slower than the camera.
+    live = run_live(walking_session, rate=0.2, timeout_s=240)
     assert live.run_exit_code == 0
     assert live.images == offline.frames
     assert live.joint_states == offline.frames, "the live graph dropped frames"
