@@ -73,6 +73,13 @@ def cmd_run(args: argparse.Namespace) -> int:
         remaps.append(f"depth/image_raw:={args.depth_topic}")
     if args.info_topic:
         remaps.append(f"depth/camera_info:={args.info_topic}")
+    node_params: dict[str, list[str]] = {}
+    for item in args.param or []:
+        key, sep, value = item.partition("=")
+        node, _, name = key.partition(".")
+        if not sep or node not in NODE_NAMES or not name:
+            raise UserError(f"--param expects NODE.PARAM=VALUE with NODE one of {', '.join(NODE_NAMES)}, got {item!r}")
+        node_params.setdefault(node, []).append(f"{name}:={value}")
     nodes = args.nodes.split(",") if args.nodes else list(NODE_NAMES)
     for n in nodes:
         if n not in NODE_NAMES:
@@ -93,7 +100,7 @@ def cmd_run(args: argparse.Namespace) -> int:
                 if not Path(args.replay).exists():
                     raise UserError(f"{args.replay}: no such file or folder")
                 extra = [f"input:={Path(args.replay).resolve()}", f"rate:={args.rate}", f"loop:={str(args.loop).lower()}"]
-            cmd = node_command(name, params_file=params_file, remaps=remaps, params=extra)
+            cmd = node_command(name, params_file=params_file, remaps=remaps, params=extra + node_params.get(name, []))
             # own session: a terminal Ctrl-C reaches only us, and we forward exactly one SIGINT
             procs[name] = subprocess.Popen(cmd, start_new_session=True, preexec_fn=_pdeathsig)  # noqa: S603
         print(f"walker-gait run: started {', '.join(f'{n} (pid {p.pid})' for n, p in procs.items())}; "
@@ -245,6 +252,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--depth-topic", help="remap the depth image input (default /depth/image_raw)")
     p.add_argument("--info-topic", help="remap the CameraInfo input (default /depth/camera_info)")
     p.add_argument("--nodes", help=f"comma-separated subset of {','.join(NODE_NAMES)}")
+    p.add_argument("--param", action="append", metavar="NODE.PARAM=VALUE",
+                   help="override one node parameter (repeatable), e.g. leg_tracker.preset=paper")
     p.add_argument("--replay", metavar="INPUT", help="let bag_replay play this recording into the graph")
     p.add_argument("--rate", type=float, default=1.0, help="replay rate (with --replay)")
     p.add_argument("--loop", action="store_true", help="loop the replay (with --replay)")

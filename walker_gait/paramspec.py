@@ -19,6 +19,9 @@ NODE_PARAMS: dict[str, list[tuple[str, Any, str]]] = {
                                  "v1 disparity, metric depth by eq. (1) of the seed paper, 2047 = invalid"),
         ("use_rectified", True, "true: intrinsics from P (rectified/registered depth); false: from K and D, and the "
                                 "image is undistorted (plumb_bob / rational_polynomial, OpenCV, nearest neighbour)"),
+        ("input_reliability", "best_effort", "QoS reliability of the depth/CameraInfo subscriptions: `best_effort` "
+                                             "(matches every driver) or `reliable` (lossless from reliable sources "
+                                             "such as `walker-gait replay`)"),
     ],
     "floor_segmentation": [
         ("seed", 0, "seed of the RANSAC random generator (numpy Generator)"),

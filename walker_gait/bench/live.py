@@ -62,8 +62,8 @@ def run_live(path: Path, *, rate: float = 1.0, timeout_s: float = 120.0, settle_
     arrivals: dict[int, float] = {}
     rclpy.init()
     node = rclpy.create_node("walker_gait_live_probe")
-    best_effort = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=50, reliability=ReliabilityPolicy.BEST_EFFORT,
-                             durability=DurabilityPolicy.VOLATILE)
+    best_effort = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=50, reliability=ReliabilityPolicy.RELIABLE,
+                             durability=DurabilityPolicy.VOLATILE)  # reliable: the probe must not lose frames itself
 
     def on_image(data: bytes) -> None:
         msg = M.deserialize(data, M.IMAGE)
@@ -93,7 +93,8 @@ def run_live(path: Path, *, rate: float = 1.0, timeout_s: float = 120.0, settle_
     node.create_subscription(rclpy_type(M.DIAGNOSTIC_ARRAY), "/diagnostics", on_diag, DIAGNOSTICS, raw=True)
     env = dict(os.environ, PYTHONUNBUFFERED="1")
     graph = [sys.executable, "-m", "walker_gait.cli", "run", "--nodes",
-             "depth_to_cloud,floor_segmentation,leg_tracker,gait_analyzer"]
+             "depth_to_cloud,floor_segmentation,leg_tracker,gait_analyzer",
+             "--param", "depth_to_cloud.input_reliability=reliable"]
     run = subprocess.Popen(graph, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
                            start_new_session=True)
     replay: subprocess.Popen[str] | None = None

@@ -35,9 +35,20 @@ SENSOR_IN = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=5, reliability=Rel
 #: Per-frame streams between our nodes and to visualisers: reliable, keep last 5.
 STREAM = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=5, reliability=ReliabilityPolicy.RELIABLE,
                     durability=DurabilityPolicy.VOLATILE)
-#: Per-frame stream subscriptions: best effort, so any publisher matches and a slow node drops, not queues.
-STREAM_IN = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=5, reliability=ReliabilityPolicy.BEST_EFFORT,
+#: Per-frame stream subscriptions between our nodes: reliable keep-last-5 — large fragmented messages are
+#: not lost to a dropped fragment, and a slow node still only ever sees the newest 5 (no growing backlog).
+STREAM_IN = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=5, reliability=ReliabilityPolicy.RELIABLE,
                        durability=DurabilityPolicy.VOLATILE)
+
+
+def input_qos(reliability: str) -> QoSProfile:
+    """Camera-input QoS: ``best_effort`` (default; matches every driver) or ``reliable`` (reliable sources)."""
+    if reliability == "best_effort":
+        return SENSOR_IN
+    if reliability == "reliable":
+        return QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=5, reliability=ReliabilityPolicy.RELIABLE,
+                          durability=DurabilityPolicy.VOLATILE)
+    raise ParameterError(f"input_reliability must be 'best_effort' or 'reliable', got {reliability!r}")
 #: Discrete gait events and steps: reliable, keep last 100 — none lost to a briefly slow subscriber.
 EVENTS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=100, reliability=ReliabilityPolicy.RELIABLE,
                     durability=DurabilityPolicy.VOLATILE)

@@ -30,6 +30,7 @@ from walker_gait.ros.base import (
     STREAM,
     STREAM_IN,
     WalkerNode,
+    input_qos,
     spin_node,
 )
 
@@ -50,12 +51,13 @@ class DepthToCloudNode(WalkerNode):
 
         self.depth_format = str(self.declare_parameter("depth_format", "auto").value)
         self.use_rectified = bool(self.declare_parameter("use_rectified", True).value)
+        qos_in = input_qos(str(self.declare_parameter("input_reliability", "best_effort").value))
         self.projector = DepthProjector()
         self.undistorter: Any = None
         self.info_key: tuple[Any, ...] | None = None
         self.pub_points = self.raw_publisher(M.POINT_CLOUD2, "points", STREAM)
-        self.raw_subscription(M.CAMERA_INFO, "depth/camera_info", self.on_info, SENSOR_IN)
-        self.raw_subscription(M.IMAGE, "depth/image_raw", self.on_image, SENSOR_IN)
+        self.raw_subscription(M.CAMERA_INFO, "depth/camera_info", self.on_info, qos_in)
+        self.raw_subscription(M.IMAGE, "depth/image_raw", self.on_image, qos_in)
         self.info: Any = None
         self._warned_no_info = 0.0
 

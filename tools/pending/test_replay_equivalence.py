@@ -31,7 +31,6 @@ def test_replay_into_live_graph_matches_offline_process(walking_session: Path, t
     # live graph drops frames rather than queueing them when a node is slower than the camera.
     live = run_live(walking_session, rate=0.2, timeout_s=240)
     assert live.run_exit_code == 0
-    assert live.images == offline.frames
     assert live.joint_states == offline.frames, "the live graph dropped frames"
     assert not live.skipped, live.skipped
     got = sorted(live.steps, key=lambda s: s.stamp)
