@@ -167,7 +167,8 @@ def cmd_replay(args: argparse.Namespace) -> int:
     rclpy.init(args=[sys.argv[0]])
     node = WalkerNode("bag_replay")
     replayer = Replayer(node, str(path), rate=args.rate, loop=args.loop, publish_clock=not args.no_clock,
-                        start_delay=args.start_delay, depth_topic=args.depth_topic, info_topic=args.info_topic)
+                        start_delay=args.start_delay, depth_topic=args.depth_topic, info_topic=args.info_topic,
+                        wait_subscribers=args.wait_subscribers)
     replayer.start()
     try:
         while rclpy.ok() and not replayer.finished.is_set():
@@ -268,6 +269,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--info-topic")
     p.add_argument("--start-delay", type=float, default=1.0, help="seconds to wait for subscribers first")
     p.add_argument("--linger", type=float, default=1.0, help="seconds to keep publishing queues alive at the end")
+    p.add_argument("--wait-subscribers", type=int, default=0, metavar="N",
+                   help="first wait (up to 30 s) until N subscribers listen to the depth and CameraInfo topics")
     p.set_defaults(func=cmd_replay)
 
     for name, helptext in (("process", "run the whole pipeline offline on a recording, write results"),

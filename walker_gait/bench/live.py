@@ -108,7 +108,7 @@ def run_live(path: Path, *, rate: float = 1.0, timeout_s: float = 120.0, settle_
             if all(node.count_subscribers(t) >= (2 if t in ("/depth/image_raw",) else 1) for t in links):
                 break
         replay = subprocess.Popen([sys.executable, "-m", "walker_gait.cli", "replay", str(path), "--rate", str(rate),
-                                   "--start-delay", "1.0"], env=env, stdout=subprocess.DEVNULL,
+                                   "--start-delay", "0.5", "--wait-subscribers", "2"], env=env, stdout=subprocess.DEVNULL,
                                   stderr=subprocess.PIPE, text=True, start_new_session=True)
         t0 = time.monotonic()
         deadline = t0 + timeout_s
