@@ -108,7 +108,7 @@ def section_presets(seed: int, frames: int, *, run_paper: bool = True) -> list[s
     from walker_gait.bench.endtoend import evaluate, render
     from walker_gait.synth import SessionSpec, generate_session
 
-    session = generate_session(SessionSpec.preset("normal", duration=frames / 30.0 + 0.05),
+    session = generate_session(SessionSpec.preset("normal", duration=max(frames, 10) / 30.0 + 0.05),
                                rng=np.random.default_rng(seed))
     rendered = render(session, max(frames, 10))
     lines = [f"## Presets side by side (`normal`, first {len(rendered.frames)} frames, combined cue)", "",
