@@ -56,16 +56,18 @@ def gt_steps(gt: dict[str, Any]) -> list[Step]:
                  double_support_time=f(s["double_support_time"])) for s in gt["steps"]]
 
 
-def comparison(steps: list[Step], truth: list[Step]) -> dict[str, float]:
+def comparison(steps: list[Step], truth: list[Step]) -> tuple[dict[str, float], dict[int, Step]]:
+    """Scores of ``steps`` against ``truth`` and, per detected step index, its matched true step."""
     from walker_gait.bench.gait import match_steps
 
     pairs, missed, extra = match_steps(truth, steps)
     matched = [(truth[ti], steps[di]) for ti, di in pairs]
     le = [abs(d.step_length - t.step_length) for t, d in matched if np.isfinite(t.step_length)]
     we = [abs(d.step_width - t.step_width) for t, d in matched if np.isfinite(t.step_width)]
-    return {"matched": len(pairs), "missed": len(missed), "extra": len(extra),
-            "step_length_mae_cm": float(np.mean(le) * 100) if le else float("nan"),
-            "step_width_mae_cm": float(np.mean(we) * 100) if we else float("nan")}
+    scores = {"matched": len(pairs), "missed": len(missed), "extra": len(extra),
+              "step_length_mae_cm": float(np.mean(le) * 100) if le else float("nan"),
+              "step_width_mae_cm": float(np.mean(we) * 100) if we else float("nan")}
+    return scores, {di: truth[ti] for ti, di in pairs}
 
 
 def joint_errors_cm(poses: list[Any], gt: dict[str, Any]) -> dict[str, float]:
@@ -97,11 +99,11 @@ def run_demo(*, out: Path, live: bool, seed: int, quiet: bool) -> int:
         print("replaying the sample through the live node graph (walker-gait run --replay) ...", flush=True)
         live_res = run_live(bag, rate=1.0)
         steps = sorted(live_res.steps, key=lambda s: s.stamp)
-        print(format_steps_table(steps, truth=truth))
+        cmp, matches = comparison(steps, truth)
+        print(format_steps_table(steps, truth=matches))
         print(f"frames in/out: {live_res.images}/{live_res.joint_states}; latency image -> JointState median "
               f"{live_res.median_latency_ms:.0f} ms, p95 {live_res.p95_latency_ms:.0f} ms; skipped: "
               f"{live_res.skipped or 'none'}; walker-gait run exit code {live_res.run_exit_code}")
-        cmp = comparison(steps, truth)
     else:
         from walker_gait.pipeline import PipelineOptions, process_recording
 
@@ -109,15 +111,15 @@ def run_demo(*, out: Path, live: bool, seed: int, quiet: bool) -> int:
                                 ground_truth={"steps": gt["steps"]})
         print(f"\n{bag.name}: {res.frames} frames processed in {res.wall_s:.1f} s "
               f"({res.frames / max(res.wall_s, 1e-9):.1f} frames/s)")
+        cmp, matches = comparison(res.steps, truth)
         print("\nsteps (detected, with the ground truth alongside):")
-        print(format_steps_table(res.steps, truth=truth))
+        print(format_steps_table(res.steps, truth=matches))
         print("\nsummary:  " + format_summary(res.summary))
         errs = joint_errors_cm(res.poses, gt)
         if errs:
             print("tracking error vs ground truth (mean, cm): " + ", ".join(
                 f"{k} {v:.1f}" for k, v in errs.items() if k != "frames_over_10cm_pct")
                 + f"; frames with mean error > 10 cm: {errs['frames_over_10cm_pct']:.1f} %")
-        cmp = comparison(res.steps, truth)
         print(f"\nreport: {(results / 'report.html').resolve()}")
     print(f"steps vs ground truth: {cmp['matched']} matched, {cmp['missed']} missed, {cmp['extra']} extra; "
           f"step length MAE {cmp['step_length_mae_cm']:.1f} cm, step width MAE {cmp['step_width_mae_cm']:.1f} cm")

@@ -13,7 +13,7 @@ import json
 import sys
 import time
 from collections import Counter
-from collections.abc import Iterator, Mapping
+from collections.abc import Mapping
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
 from typing import Any
@@ -228,21 +228,20 @@ def _summary_dict(analyzer_summary: Any) -> dict[str, Any]:
     return dict(analyzer_summary)
 
 
-def format_steps_table(steps: list[Step], *, truth: list[Step] | None = None) -> str:
+def format_steps_table(steps: list[Step], *, truth: dict[int, Step] | None = None) -> str:
+    """Text table of ``steps``; ``truth`` maps an index into ``steps`` to its matched ground-truth step."""
     if not steps:
         return "no steps detected"
     head = f"{'#':>3} {'time s':>7} {'foot':<5} {'length cm':>9} {'width cm':>8} {'time s':>6}"
     if truth is not None:
         head += f"  {'true len':>8} {'true wid':>8}"
     rows = [head]
-    for st in steps:
+    for i, st in enumerate(steps):
         row = (f"{st.index:>3} {st.stamp:>7.2f} {st.side.label:<5} {st.step_length * 100:>9.1f} "
                f"{st.step_width * 100:>8.1f} {st.step_time:>6.2f}")
-        if truth is not None:
-            match = min(truth, key=lambda t: abs(t.stamp - st.stamp) + (0 if t.side == st.side else 1e9),
-                        default=None)
-            if match is not None and abs(match.stamp - st.stamp) < 0.3 and match.side == st.side:
-                row += f"  {match.step_length * 100:>8.1f} {match.step_width * 100:>8.1f}"
+        match = truth.get(i) if truth is not None else None
+        if match is not None:
+            row += f"  {match.step_length * 100:>8.1f} {match.step_width * 100:>8.1f}"
         rows.append(row)
     return "\n".join(rows)
 
@@ -272,10 +271,6 @@ def _progress(iterable: Any, *, total: int, enabled: bool, desc: str) -> Any:
     return tqdm(iterable, total=total, desc=desc, unit="frame", disable=not sys.stderr.isatty(), leave=False)
 
 
-def iter_recording_frames(recording: Any) -> Iterator[Any]:
-    yield from recording.iter_frames()
-
-
 def process_recording(path: Path, out_dir: Path, *, options: PipelineOptions | None = None,
                       progress: bool = True, ground_truth: Mapping[str, Any] | None = None) -> ProcessResult:
     """Process one recording; write steps/events/joints CSV, summary.json, tracked.mcap, report.html."""
@@ -294,12 +289,11 @@ def process_recording(path: Path, out_dir: Path, *, options: PipelineOptions | N
     steps: list[Step] = []
     skipped: Counter[str] = Counter()
     timing_sum: Counter[str] = Counter()
-    frame_headers: list[tuple[int, str]] = []
     n_frames = 0
-    mcap_msgs: list[tuple[str, int, Any]] = []
+    tracked: list[tuple[int, str, FrameResult]] = []  # (stamp_ns, frame_id, result) for tracked.mcap
     from walker_gait.core.depth import CameraInfoError, DepthDecodeError
 
-    for frame in _progress(iter_recording_frames(recording), total=recording.frame_count, enabled=progress,
+    for frame in _progress(recording.iter_frames(), total=recording.frame_count, enabled=progress,
                            desc=path.name):
         n_frames += 1
         try:
@@ -319,10 +313,9 @@ def process_recording(path: Path, out_dir: Path, *, options: PipelineOptions | N
         floors.append(res.floor)
         events.extend(res.events)
         steps.extend(res.steps)
-        frame_headers.append((frame.stamp_ns, frame.frame_id))
         timing_sum.update(res.timings_ms)
         if options.write_mcap:
-            mcap_msgs.append(("frame", frame.stamp_ns, (frame.frame_id, res)))
+            tracked.append((frame.stamp_ns, frame.frame_id, res))
     tail_events, tail_steps = proc.finish()
     events.extend(tail_events)
     steps.extend(tail_steps)
@@ -354,8 +347,7 @@ def process_recording(path: Path, out_dir: Path, *, options: PipelineOptions | N
     write_summary_json(files[-1], summary, metadata=metadata)
     if options.write_mcap:
         files.append(out_dir / "tracked.mcap")
-        write_tracked_mcap(files[-1], frames=[m[2] for m in mcap_msgs], stamps=[m[1] for m in mcap_msgs],
-                           events=events, steps=steps, summary=summary, summary_window=None,
+        write_tracked_mcap(files[-1], frames=tracked, events=events, steps=steps, summary=summary,
                            particle_count=int(getattr(options.tracker, "n_particles", 0)))
     if options.write_report:
         from walker_gait.report import write_report
@@ -373,10 +365,12 @@ def process_recording(path: Path, out_dir: Path, *, options: PipelineOptions | N
                          timings_ms=timings, files=files)
 
 
-def write_tracked_mcap(path: Path, *, frames: list[tuple[str, FrameResult]], stamps: list[int],
-                       events: list[GaitEvent], steps: list[Step], summary: Mapping[str, Any],
-                       summary_window: float | None, particle_count: int) -> None:
-    """The messages the live nodes would publish, as a rosbag2/MCAP (atomic; Foxglove-readable)."""
+def write_tracked_mcap(path: Path, *, frames: list[tuple[int, str, FrameResult]], events: list[GaitEvent],
+                       steps: list[Step], summary: Mapping[str, Any], particle_count: int) -> None:
+    """The messages the live nodes would publish, as a rosbag2/MCAP (atomic; Foxglove-readable).
+
+    ``frames`` are ``(stamp_ns, frame_id, result)``; ``summary`` uses GaitSummary's field names.
+    """
     from walker_gait import messages as M
     from walker_gait.io.bagwriter import BagWriter
 
@@ -389,30 +383,24 @@ def write_tracked_mcap(path: Path, *, frames: list[tuple[str, FrameResult]], sta
         for topic, typename in topics.items():
             bag.add_topic(topic, typename)
         stream: list[tuple[int, str, Any]] = []
-        for (frame_id, res), stamp_ns in zip(frames, stamps, strict=True):
+        for stamp_ns, frame_id, res in frames:
             header = M.make_header(M.make_time(stamp_ns, ns=True), frame_id)
             stream.append((stamp_ns, "/joint_states", M.make_joint_state(res.pose, header)))
             stream.append((stamp_ns, "/leg_track", M.make_leg_track(res.pose, header, particle_count=particle_count)))
             stream.append((stamp_ns, "/leg_markers", M.make_markers(res.pose, header)))
             stream.append((stamp_ns, "/floor_plane", M.make_floor_plane(res.floor, header)))
-        frame_id = frames[0][0] if frames else ""
+        frame_id = frames[0][1] if frames else ""
         for ev in events:
             stream.append((round(ev.stamp * 1e9), "/gait_events", M.make_gait_event(ev, frame_id)))
         for st in steps:
             stream.append((round(st.stamp * 1e9), "/steps", M.make_step(st, frame_id)))
-        if stamps:
-            from walker_gait.io.outputs import summary_to_json  # noqa: F401  (keeps the mapping in one place)
-
-            stream.append((stamps[-1], "/gait_summary", M.make_gait_summary(
-                _msg_summary(summary), M.make_header(M.make_time(stamps[-1], ns=True), frame_id))))
+        if frames:
+            last_ns = frames[-1][0]
+            stream.append((last_ns, "/gait_summary", M.make_gait_summary(
+                dict(summary), M.make_header(M.make_time(last_ns, ns=True), frame_id))))
         stream.sort(key=lambda item: item[0])
         for stamp_ns, topic, msg in stream:
             bag.write(topic, max(stamp_ns, 0), msg)
-
-
-def _msg_summary(summary: Mapping[str, Any]) -> dict[str, Any]:
-    """GaitSummary field dict from the analyzer's summary dict (which uses the message's field names)."""
-    return {k: v for k, v in summary.items()}
 
 
 # ------------------------------------------------------------------------------------------ batch

@@ -10,7 +10,6 @@
 
 from __future__ import annotations
 
-import dataclasses
 import importlib
 import signal
 import sys
@@ -219,11 +218,7 @@ def install_interrupt_handlers() -> None:
     signal.signal(signal.SIGTERM, handler)
 
 
-def now_monotonic() -> float:
-    return time.monotonic()
-
-
 __all__ = [
-    "DIAGNOSTICS", "EVENTS", "LATCHED", "SENSOR_IN", "STREAM", "STREAM_IN", "WalkerNode", "dataclasses",
+    "DIAGNOSTICS", "EVENTS", "LATCHED", "SENSOR_IN", "STREAM", "STREAM_IN", "WalkerNode", "input_qos",
     "rclpy_type", "spin_node",
 ]
