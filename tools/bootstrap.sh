@@ -43,7 +43,8 @@ if ! stamp_ok deps "$deps_hash"; then
   npinc=$("$PY" -c 'import numpy; print(numpy.get_include())')
   pyver=$("$PY" -c 'import sys; print(f"{sys.version_info[0]}.{sys.version_info[1]}")')
   tag=cp${pyver/./}-cp${pyver/./}
-  grep -rlF "/opt/python/$tag" "$VENV/share" --include='*.cmake' 2>/dev/null | while read -r f; do
+  # (no match = already rewritten by an earlier run: grep's exit 1 must not abort under pipefail)
+  { grep -rlF "/opt/python/$tag" "$VENV/share" --include='*.cmake' 2>/dev/null || true; } | while read -r f; do
     sed -i -e "s#/opt/python/$tag/include/python$pyver#$pyinc#g" \
            -e "s#/opt/python/$tag/lib/python$pyver/site-packages/numpy/_core/include#$npinc#g" "$f"
   done

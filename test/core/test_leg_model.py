@@ -33,9 +33,15 @@ def test_segment_lengths_and_foot_points() -> None:
     np.testing.assert_allclose(np.linalg.norm(p[:, :, KNEE] - p[:, :, HIP], axis=-1), x[:, [L.LEN_THIGH] * 2], atol=1e-9)
     np.testing.assert_allclose(np.linalg.norm(p[:, :, ANKLE] - p[:, :, KNEE], axis=-1), x[:, [L.LEN_CALF] * 2], atol=1e-9)
     np.testing.assert_allclose(np.linalg.norm(p[:, :, TOE] - p[:, :, HEEL], axis=-1), x[:, [L.LEN_FOOT] * 2], atol=1e-9)
-    # heel/toe are the ends of the foot segment (sole axis)
-    np.testing.assert_allclose(kin.segments[:, :, 2, 0], p[:, :, HEEL])
-    np.testing.assert_allclose(kin.segments[:, :, 2, 1], p[:, :, TOE])
+    # the foot segment lies on the heel-toe sole axis, inset by its end radii so that the capsule's
+    # rounded ends reach exactly the heel and toe points
+    fwd = (p[:, :, TOE] - p[:, :, HEEL]) / x[:, [L.LEN_FOOT] * 2, None]
+    r = kin.radii[:, :, 2]
+    np.testing.assert_allclose(kin.segments[:, :, 2, 0], p[:, :, HEEL] + fwd * r[..., 0, None] * lm.FOOT_CAP_INSET,
+                               atol=1e-12)
+    np.testing.assert_allclose(kin.segments[:, :, 2, 1], p[:, :, TOE] - fwd * r[..., 1, None] * lm.FOOT_CAP_INSET,
+                               atol=1e-12)
+    assert np.all(r[..., 0] + r[..., 1] < x[:, [L.LEN_FOOT] * 2])  # the inset axis keeps a positive length
     # the ankle is above the sole: distance from ankle to heel fixed by the foot length
     d = np.linalg.norm(p[:, :, ANKLE] - p[:, :, HEEL], axis=-1)
     np.testing.assert_allclose(d, np.hypot(lm.ANKLE_HEIGHT, lm.HEEL_BACK) * x[:, [L.LEN_FOOT] * 2], atol=1e-9)

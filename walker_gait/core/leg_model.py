@@ -37,8 +37,9 @@ Geometry
   radii ``rad_thigh`` → ``THIGH_TAPER * rad_thigh``;
 * calf: knee → ankle joint centre, radii ``rad_calf`` → ``CALF_TAPER * rad_calf``;
 * foot: half-cylinder with a flat base (the sole); its axis lies *in the sole*
-  from the heel point to the toe point, radii ``FOOT_HEEL_RADIUS * len_foot`` →
-  ``FOOT_TOE_RADIUS * len_foot``; the ankle joint centre is ``ANKLE_HEIGHT *
+  on the heel-toe line, radii ``FOOT_HEEL_RADIUS * len_foot`` →
+  ``FOOT_TOE_RADIUS * len_foot``, its ends inset by those radii (``FOOT_CAP_INSET``) so
+  that the rounded ends of the rendered capsule stop at the heel and toe points; the ankle joint centre is ``ANKLE_HEIGHT *
   len_foot`` above the sole and ``HEEL_BACK * len_foot`` in front of the heel.
 * output points (``LEG_POINTS``): hip/knee/ankle joint centres; heel = the
   posterior-most point of the foot at sole level (heel end of the sole axis);
@@ -75,11 +76,17 @@ FOOT_HEEL_RADIUS = 0.28
 """Foot half-cylinder radius at the heel, as a fraction of foot length (~7.5 cm for a 27 cm
 shoe: an effective radius of the ~10 cm tall, ~7 cm wide heel counter, so that the model's
 surface reaches the observed top of the shoe and the ankle without pitching the foot)."""
-FOOT_TOE_RADIUS = 0.10
-"""Foot half-cylinder radius at the toe, as a fraction of foot length (~2.7 cm: toe box)."""
+FOOT_TOE_RADIUS = 0.15
+"""Foot half-cylinder radius at the toe end, as a fraction of foot length (~4 cm for a 27 cm shoe:
+half the forefoot width of a shoe, ~9-10 cm, and about the height of its toe box; a thinner toe
+end leaves the front of the shoe, which is what the camera sees, unexplained and pulls the
+model's foot forward and its heel up)."""
 ANKLE_HEIGHT = 0.35
 """Ankle joint centre height above the sole, fraction of foot length (adult anthropometry:
 ankle centre ~9.5 cm above the sole of a 27 cm shoe)."""
+FOOT_CAP_INSET = 1.0
+"""Inset of the foot axis ends, in units of the end radius (1 = the capsule's rounded ends reach
+exactly the heel and toe points instead of overshooting them by a radius)."""
 HEEL_BACK = 0.24
 """Horizontal heel-to-ankle distance, fraction of foot length (ankle centre ~6.5 cm in front of
 the posterior-most sole point of a 27 cm shoe; heel-to-ankle distance ~11.5 cm)."""
@@ -277,7 +284,10 @@ def forward_kinematics(states: FloatArray) -> Kinematics:
         toe = ankle + np.einsum("pij,pj->pi", r_foot, toe_local)
         segments[:, side, 0, 0], segments[:, side, 0, 1] = hip, knee
         segments[:, side, 1, 0], segments[:, side, 1, 1] = knee, ankle
-        segments[:, side, 2, 0], segments[:, side, 2, 1] = heel, toe
+        fwd = r_foot[:, :, 0]
+        r_heel, r_toe = FOOT_HEEL_RADIUS * l_ft, FOOT_TOE_RADIUS * l_ft
+        segments[:, side, 2, 0] = heel + fwd * (FOOT_CAP_INSET * r_heel)[:, None]
+        segments[:, side, 2, 1] = toe - fwd * (FOOT_CAP_INSET * r_toe)[:, None]
         radii[:, side, 0, 0], radii[:, side, 0, 1] = r_th, THIGH_TAPER * r_th
         radii[:, side, 1, 0], radii[:, side, 1, 1] = r_ca, CALF_TAPER * r_ca
         radii[:, side, 2, 0], radii[:, side, 2, 1] = FOOT_HEEL_RADIUS * l_ft, FOOT_TOE_RADIUS * l_ft
