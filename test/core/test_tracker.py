@@ -124,3 +124,37 @@ def test_bad_input_raises() -> None:
         tr.update(stamp=0.0, points=np.zeros((5, 2)), depth_fg=np.zeros((480, 640), np.float32), floor=floor)
     with pytest.raises(TrackerInputError):
         tr.update(stamp=0.0, points=np.zeros((5, 3)), depth_fg=np.zeros((10, 10), np.float32), floor=floor)
+
+
+def test_segment_visibility_follows_the_observed_depth() -> None:
+    """Visible fraction per segment: ~1 where the model's surface is observed, ~0 for a leg that is
+    missing from the depth or hidden behind something observed in front of it."""
+    from walker_gait.bench.tracker import gait_state, render_frame
+    from walker_gait.core.leg_model import BodyFrame
+
+    floor = FloorPlane.from_camera_pose(height=0.70, pitch=0.50)
+    state = gait_state(0.3)
+    state[lm.StateLayout.ROOT_X] = -0.85
+    state = lm.enforce_constraints(state[None])[0][0]
+    tracker = LegTracker(DEFAULT, KINECT, rng=np.random.default_rng(0))
+    kin = lm.forward_kinematics(state[None])
+    body = BodyFrame.from_floor(floor, mounting="facing_user")
+    seg = body.to_camera(kin.segments).reshape(1, 6, 2, 3)
+    rad = kin.radii.reshape(1, 6, 2)
+
+    def visibility(depth: np.ndarray, points: np.ndarray) -> np.ndarray:
+        frame = tracker._prepare(points.astype(float), depth, floor)
+        return tracker._visibility(frame, seg, rad)
+
+    full = render_frame(state, intrinsics=KINECT, floor=floor, mounting="facing_user",
+                        rng=np.random.default_rng(1), noise_m=0.0)
+    vis = visibility(full.depth, full.points)
+    assert np.all(vis[:, 1:] > 0.8), vis  # calves and feet are in view (thigh tops leave the image)
+    no_left = render_frame(state, intrinsics=KINECT, floor=floor, mounting="facing_user",
+                           rng=np.random.default_rng(1), noise_m=0.0, drop_leg=0)
+    vis = visibility(no_left.depth, no_left.points)
+    assert np.all(vis[0] < 0.2) and np.all(vis[1, 1:] > 0.8), vis
+    # an observed surface 20 cm in front of everything hides every segment
+    occluded = np.where(np.isfinite(full.depth), full.depth - 0.2, np.nan).astype(np.float32)
+    vis = visibility(occluded, full.points)
+    assert np.all(vis < 0.05), vis

@@ -56,12 +56,19 @@ def make_depth_node() -> Any:
     return node, published
 
 
-def test_depth_without_camera_info_is_skipped_then_processed(rclpy_context: None) -> None:
+def test_depth_before_camera_info_is_held_then_processed(rclpy_context: None) -> None:
+    from walker_gait.ros.nodes import WAITING_IMAGES
+
     node, published = make_depth_node()
     try:
-        node.dispatch("depth/image_raw", M.IMAGE, node.on_image, image_bytes(good_depth()))
+        # images racing ahead of the first CameraInfo are held (only the newest WAITING_IMAGES)...
+        for _ in range(WAITING_IMAGES + 2):
+            node.dispatch("depth/image_raw", M.IMAGE, node.on_image, image_bytes(good_depth()))
         assert published == []
+        # ...and converted, in order, when it arrives
         node.dispatch("depth/camera_info", M.CAMERA_INFO, node.on_info, info_bytes())
+        assert len(published) == WAITING_IMAGES
+        published.clear()
         node.dispatch("depth/image_raw", M.IMAGE, node.on_image, image_bytes(good_depth()))
         assert len(published) == 1
         cloud = M.read_pointcloud2(published[0])
@@ -170,5 +177,45 @@ def test_floor_segmentation_node_handles_all_invalid_and_good_clouds(rclpy_conte
         mask = M.image_to_mask(out["mask"][-1])
         assert mask[12:25, 27:33].mean() > 0.9  # the box (above the floor) is foreground
         assert mask[45:, :].mean() < 0.02  # the floor is not
+    finally:
+        node.destroy_node()
+
+
+def test_leg_tracker_holds_frames_until_camera_info(rclpy_context: None) -> None:
+    """Foreground frames completed before the first CameraInfo are tracked once it arrives, not lost."""
+    from walker_gait.bench.tracker import KINECT, gait_state, render_frame
+    from walker_gait.ros.nodes import WAITING_IMAGES, LegTrackerNode
+
+    floor = FloorPlane.from_camera_pose(height=0.70, pitch=0.50)
+    state = gait_state(0.2)
+    node = LegTrackerNode(parameter_overrides=[rclpy.parameter.Parameter("n_particles", value=32),
+                                               rclpy.parameter.Parameter("init_rounds", value=1)])
+    joints: list[Any] = []
+    node.pub_joints = joints.append
+    node.pub_track = lambda msg: None
+    node.pub_markers = lambda msg: None
+    try:
+        def send(stamp: float) -> None:
+            fr = render_frame(state, intrinsics=KINECT, floor=floor, mounting="facing_user",
+                              rng=np.random.default_rng(0), stamp=stamp)
+            header = M.make_header(stamp, "cam")
+            mask = np.isfinite(fr.depth)
+            node.dispatch("foreground/points", M.POINT_CLOUD2, lambda m: node.on_part("points", m),
+                          M.serialize(M.make_pointcloud2(fr.points, header)))
+            node.dispatch("foreground/mask", M.IMAGE, lambda m: node.on_part("mask", m),
+                          M.serialize(M.make_image(mask.astype(np.uint8) * 255, header, encoding="mono8")))
+            node.dispatch("floor_plane", M.FLOOR_PLANE, lambda m: node.on_part("floor", m),
+                          M.serialize(M.make_floor_plane(floor, header)))
+
+        for i in range(WAITING_IMAGES + 1):
+            send(1.0 + i / 30)
+        assert joints == []
+        assert sum(node._problems.values()) == 1  # the one frame beyond the hold is dropped and counted
+        node.dispatch("depth/camera_info", M.CAMERA_INFO, node.on_info,
+                      M.serialize(M.make_camera_info(KINECT, M.make_header(1.0, "cam"))))
+        assert [M.stamp_to_ns(j.header.stamp) for j in joints] == [
+            M.stamp_to_ns(M.make_header(1.0 + i / 30, "cam").stamp) for i in range(1, WAITING_IMAGES + 1)]
+        send(2.0)
+        assert len(joints) == WAITING_IMAGES + 1
     finally:
         node.destroy_node()

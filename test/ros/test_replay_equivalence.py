@@ -33,7 +33,8 @@ def test_replay_into_live_graph_matches_offline_process(walking_session: Path, t
     # must absorb that, hence 0.15x (a run at 0.2x lost one of 150 frames here once).
     live = run_live(walking_session, rate=0.15, timeout_s=300)
     assert live.run_exit_code == 0
-    assert live.joint_states == offline.frames, "the live graph dropped frames"
+    missing = [(t - (live.first_stamp_ns or 0)) / 1e9 for t in live.missing_stamps_ns]
+    assert live.joint_states == offline.frames, f"the live graph dropped frames at t = {missing} s after the first"
     assert not live.skipped, live.skipped
     got = sorted(live.steps, key=lambda s: s.stamp)
     want = sorted(offline.steps, key=lambda s: s.stamp)

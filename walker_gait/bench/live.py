@@ -31,6 +31,8 @@ class LiveResult:
     skipped: dict[str, int] = field(default_factory=dict)
     run_exit_code: int | None = None
     wall_s: float = 0.0
+    first_stamp_ns: int | None = None
+    missing_stamps_ns: list[int] = field(default_factory=list)  # images that produced no JointState
 
     @property
     def median_latency_ms(self) -> float:
@@ -68,6 +70,8 @@ def run_live(path: Path, *, rate: float = 1.0, timeout_s: float = 120.0, settle_
     def on_image(data: bytes) -> None:
         msg = M.deserialize(data, M.IMAGE)
         arrivals[M.stamp_to_ns(msg.header.stamp)] = time.monotonic()
+        if result.first_stamp_ns is None:
+            result.first_stamp_ns = M.stamp_to_ns(msg.header.stamp)
         result.images += 1
 
     def on_joints(data: bytes) -> None:
@@ -145,6 +149,7 @@ def run_live(path: Path, *, rate: float = 1.0, timeout_s: float = 120.0, settle_
             except subprocess.TimeoutExpired:
                 os.killpg(run.pid, signal.SIGKILL)
         result.run_exit_code = run.wait()
+        result.missing_stamps_ns = sorted(arrivals)
         node.destroy_node()
         rclpy.shutdown()
     return result

@@ -149,8 +149,9 @@ _LIMITS = np.array(
         (0.28, 0.58),  # len_thigh
         (0.28, 0.58),  # len_calf
         (0.18, 0.33),  # len_foot
-        (0.045, 0.12),  # rad_thigh
-        (0.030, 0.080),  # rad_calf
+        # radii: up to baggy trousers (hem radius 10-13 cm), which the camera sees instead of the leg
+        (0.045, 0.14),  # rad_thigh
+        (0.030, 0.13),  # rad_calf
     ]
     + [
         (-0.6, 1.3),  # hip flexion (extension 35 deg .. flexion 75 deg)

@@ -58,6 +58,7 @@ from walker_gait.core.likelihood import (
     log_likelihood_3d,
     project_bbox,
     render_depth,
+    skeleton_points,
     union_bbox,
 )
 from walker_gait.core.resampling import effective_sample_size, normalise_log_weights, resample
@@ -73,6 +74,8 @@ FloatArray = NDArray[np.float64]
 L = StateLayout
 
 Cue = Literal["3d", "2d", "combined"]
+
+_VIS_POINTS = 10  # interior axis points per segment sampled by the visibility test
 
 
 class TrackerInputError(ValueError):
@@ -412,11 +415,13 @@ class LegTracker:
                 cue_image=frame.cue,
             )
         if cfg.cue in ("2d", "combined"):
-            bbox = union_bbox(frame.cue.fg_bbox, project_bbox(seg, rad, intrinsics=frame.cue.intrinsics))
+            # Only pixels some particle renders differ between particles; every other pixel adds the
+            # same cost to all of them, which normalised (log) weights ignore, so the 2D cue is
+            # evaluated over the particles' own bbox (identical weights, less work than eq. 9's
+            # whole image; `log_likelihood_2d` keeps the whole-image normaliser).
+            bbox = project_bbox(seg, rad, intrinsics=frame.cue.intrinsics)
             ref_render = None
             if ref is not None and ref.segments is not None:
-                bbox = union_bbox(bbox, project_bbox(ref.segments, ref.radii, intrinsics=frame.cue.intrinsics))
-                assert bbox is not None
                 ref_render = render_depth(
                     ref.segments, ref.radii, cue=frame.cue, bbox=bbox, floor_clip=self._floor_clip[:3]
                 )[0]
@@ -623,24 +628,29 @@ class LegTracker:
         return pose, conf
 
     def _visibility(self, frame: _Frame, seg_c: FloatArray, rad: FloatArray) -> FloatArray:
-        """``(2, 3)`` fraction of each segment's rendered pixels confirmed by the observed depth."""
+        """``(2, 3)`` fraction of each segment's axis points whose pixel shows its surface.
+
+        A point (12 per segment, on the axis, with the local radius) counts as seen when it
+        projects into the image onto foreground whose depth is not clearly in front of the
+        model's front surface (``obs >= z - r - 5 cm``); points whose surface lies below the
+        segmentation's floor cut are unobservable and not counted.  This is the per-pixel
+        comparison of seed 003 §III-D sampled along the axis instead of over rendered pixels
+        (no rendering per frame).
+        """
         cue = frame.cue
-        bbox = project_bbox(seg_c, rad, intrinsics=cue.intrinsics)
-        v0, v1, u0, u1 = bbox
-        if v1 <= v0 or u1 <= u0:
-            return np.zeros((2, 3))
-        per_seg = render_depth(
-            seg_c[0][:, None], rad[0][:, None], cue=cue, bbox=bbox, floor_clip=None
-        )  # (6, Npix)
-        for j in (2, 5):  # feet: floor clip
-            per_seg[j] = render_depth(
-                seg_c[0][j][None, None], rad[0][j][None, None], cue=cue, bbox=bbox, floor_clip=np.array([True])
-            )[0]
-        obs = cue.depth[v0:v1, u0:u1].ravel()
-        inside = np.isfinite(per_seg)
-        ok = inside & (obs[None, :] > 0) & (obs[None, :] >= per_seg - 0.05)
-        n_in = inside.sum(axis=1)
-        vis = np.where(n_in > 0, ok.sum(axis=1) / np.maximum(n_in, 1), 0.0)
+        pts, wd = skeleton_points(seg_c, rad, n=_VIS_POINTS)  # (1, 6, K, 3), (1, 6, K)
+        pts, wd = pts[0], wd[0]
+        intr = cue.intrinsics
+        z = pts[..., 2]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            u = np.rint(intr.fx * pts[..., 0] / z + intr.cx)
+            v = np.rint(intr.fy * pts[..., 1] / z + intr.cy)
+        inside = (z > 0.05) & (u >= 0) & (u < intr.width) & (v >= 0) & (v < intr.height)
+        obs = cue.depth[np.where(inside, v, 0).astype(np.intp), np.where(inside, u, 0).astype(np.intp)]
+        seen = inside & (obs > 0) & (obs >= z - wd - 0.05)
+        counted = ~cue.below_cut(pts, wd) if cue.min_height > 0 else np.ones_like(seen)
+        n = counted.sum(axis=1)
+        vis = np.where(n > 0, (seen & counted).sum(axis=1) / np.maximum(n, 1), 0.0)
         return vis.reshape(2, 3)
 
     def _confidence(self, frame: _Frame, seg_c: FloatArray, rad: FloatArray) -> float:
@@ -649,8 +659,6 @@ class LegTracker:
         tol = self.config.support_tol
         fg_cost = foreground_costs(seg_c, rad, fg=frame.fg, n=self.config.n_skeleton)[0]
         explained = float(np.mean(fg_cost < tol)) if fg_cost.size else 0.0
-        from walker_gait.core.likelihood import skeleton_points
-
         pts, wd = skeleton_points(seg_c, rad, n=self.config.n_skeleton)
         pts = pts.reshape(-1, 3)
         wd = wd.ravel()

@@ -16,7 +16,7 @@ Topics, types, QoS and parameters are tabulated in the README.
 from __future__ import annotations
 
 import time
-from collections import OrderedDict
+from collections import OrderedDict, deque
 from typing import Any
 
 import numpy as np
@@ -33,6 +33,10 @@ from walker_gait.ros.base import (
     input_qos,
     spin_node,
 )
+
+
+WAITING_IMAGES = 5
+"""Depth images held while no CameraInfo has arrived yet (converted once it comes)."""
 
 
 class MissingCameraInfo(RuntimeError):
@@ -60,8 +64,17 @@ class DepthToCloudNode(WalkerNode):
         self.raw_subscription(M.IMAGE, "depth/image_raw", self.on_image, qos_in)
         self.info: Any = None
         self._warned_no_info = 0.0
+        # images that arrive before the first CameraInfo (the two topics race at start-up) wait here
+        # and are converted as soon as it comes, instead of being lost
+        self._waiting: deque[Any] = deque(maxlen=WAITING_IMAGES)
 
     def on_info(self, msg: Any) -> None:
+        self._set_info(msg)
+        while self._waiting:
+            with self.guard("depth/image_raw"):  # a bad held image is skipped like any other
+                self.on_image(self._waiting.popleft())
+
+    def _set_info(self, msg: Any) -> None:
         from walker_gait.core.depth import intrinsics_from_camera_info
 
         fields = M.intrinsics_fields(msg)
@@ -82,8 +95,9 @@ class DepthToCloudNode(WalkerNode):
             now = time.monotonic()
             if now - self._warned_no_info > 5.0:
                 self._warned_no_info = now
-                self.get_logger().warning("depth image received but no CameraInfo yet on depth/camera_info; "
-                                          "skipping frames until one arrives")
+                self.get_logger().warning(f"depth image received but no CameraInfo yet on depth/camera_info; "
+                                          f"holding the latest {WAITING_IMAGES} images until one arrives")
+            self._waiting.append(msg)
             return
         check_info_matches(self.info, width=msg.width, height=msg.height)
         depth = decode_depth(msg.data, encoding=msg.encoding, width=msg.width, height=msg.height, step=msg.step,
@@ -186,6 +200,7 @@ class LegTrackerNode(WalkerNode):
         self.raw_subscription(M.IMAGE, "foreground/mask", lambda m: self.on_part("mask", m), STREAM_IN)
         self.raw_subscription(M.FLOOR_PLANE, "floor_plane", lambda m: self.on_part("floor", m), STREAM_IN)
         self.latencies: list[float] = []
+        self._waiting: deque[dict[str, Any]] = deque()  # complete frames held until the first CameraInfo
 
     def on_info(self, msg: Any) -> None:
         from walker_gait.core.depth import intrinsics_from_camera_info
@@ -196,13 +211,20 @@ class LegTrackerNode(WalkerNode):
             return
         self.intrinsics = intr
         self.tracker = LegTracker(self.config, intr, rng=stage_rng(self.seed, "leg_tracker"), mounting=self.mounting)
+        while self._waiting:  # frames that were complete before the first CameraInfo
+            with self.guard("leg_tracker"):
+                self.track(self._waiting.popleft())
 
     def on_part(self, name: str, msg: Any) -> None:
         complete = self.sync.add(name, msg)
         if complete is None:
             return
         if self.tracker is None:
-            raise MissingCameraInfo("no CameraInfo received on depth/camera_info yet")
+            self._waiting.append(complete)
+            if len(self._waiting) > WAITING_IMAGES:
+                self._waiting.popleft()  # the oldest held frame is dropped and counted
+                raise MissingCameraInfo("no CameraInfo received on depth/camera_info yet")
+            return
         with self.guard("leg_tracker"):
             self.track(complete)
 
