@@ -158,3 +158,30 @@ def test_segment_visibility_follows_the_observed_depth() -> None:
     occluded = np.where(np.isfinite(full.depth), full.depth - 0.2, np.nan).astype(np.float32)
     vis = visibility(occluded, full.points)
     assert np.all(vis < 0.05), vis
+
+
+@pytest.mark.parametrize("fine_2d_only", [False, True])
+def test_fine_2d_only_uses_the_2d_cue_in_final_layers_only(seq, fine_2d_only: bool,  # noqa: ANN001
+                                                           monkeypatch: pytest.MonkeyPatch) -> None:
+    import walker_gait.core.tracker as tracker_module
+
+    calls = {"2d": 0, "3d": 0}
+    real_2d, real_3d = tracker_module.log_likelihood_2d, tracker_module.log_likelihood_3d
+
+    def count_2d(*args, **kwargs):  # noqa: ANN002, ANN003, ANN202
+        calls["2d"] += 1
+        return real_2d(*args, **kwargs)
+
+    def count_3d(*args, **kwargs):  # noqa: ANN002, ANN003, ANN202
+        calls["3d"] += 1
+        return real_3d(*args, **kwargs)
+
+    cfg = preset("default", n_particles=32, init_rounds=1, fine_2d_only=fine_2d_only)
+    tracker = LegTracker(cfg, KINECT, rng=np.random.default_rng(0))
+    _run(tracker, seq.frames[:2])  # the first frame initialises
+    monkeypatch.setattr(tracker_module, "log_likelihood_2d", count_2d)
+    monkeypatch.setattr(tracker_module, "log_likelihood_3d", count_3d)
+    _run(tracker, seq.frames[2:3])
+    layers = 3 * cfg.n_layers  # root, left, right partitions x annealing layers
+    assert calls["3d"] == layers
+    assert calls["2d"] == (3 if fine_2d_only else layers)

@@ -29,8 +29,7 @@ def test_replay_into_live_graph_matches_offline_process(walking_session: Path, t
     assert len(offline.steps) >= 3, "the session must contain steps for the comparison to mean anything"
     # Slow enough that no stage drops a frame on a 2-core machine shared by 6 processes: by design the
     # live graph drops frames rather than queueing them when a node is slower than the camera. The
-    # tracker's first frame (initial search) takes several frame periods; its 5-deep input queue
-    # must absorb that, hence 0.15x (a run at 0.2x lost one of 150 frames here once).
+    # tracker's first frame (initial search) takes several frame periods and its input queue holds 5.
     live = run_live(walking_session, rate=0.15, timeout_s=300)
     assert live.run_exit_code == 0
     missing = [(t - (live.first_stamp_ns or 0)) / 1e9 for t in live.missing_stamps_ns]

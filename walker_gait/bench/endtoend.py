@@ -41,6 +41,9 @@ class Score:
     cadence_err_pct: float = float("nan")
     steps_during_standstill: int = 0
     recovery_s: float = float("nan")
+    in_image_pct: dict[str, float] = field(default_factory=dict)  # frames where the true point is in the image
+    tracker_first_ms: float = float("nan")  # the first frame (initial search)
+    tracker_ms_after_first: float = float("nan")  # mean over the frames after it
 
     @property
     def fps(self) -> float:
@@ -105,6 +108,7 @@ def evaluate(session: Any, *, preset: str = "default", cue: str | None = None, s
     n = len(rendered.frames) if max_frames is None else min(len(rendered.frames), max_frames)
     intr = session.intrinsics
     timing = {k: 0.0 for k in STAGES}
+    tracker_ms: list[float] = []
     poses = []
     steps: list[Step] = []
     for i in range(n):
@@ -113,11 +117,15 @@ def evaluate(session: Any, *, preset: str = "default", cue: str | None = None, s
                            height=intr.height, step=intr.width * 2, is_bigendian=False)
         for k in STAGES:
             timing[k] += res.timings_ms[k]
+        tracker_ms.append(res.timings_ms["tracker"])
         poses.append(res.pose)
         steps.extend(res.steps)
     steps.extend(proc.finish()[1])
     score = Score(scenario=session.spec.scenario, preset=preset, cue=tracker.cue, frames=n,
                   ms_per_frame={k: v / max(n, 1) for k, v in timing.items()})
+    if tracker_ms:
+        score.tracker_first_ms = tracker_ms[0]
+        score.tracker_ms_after_first = float(np.mean(tracker_ms[1:])) if n > 1 else float("nan")
     # --- joints: frames where both legs are in view
     truth = np.asarray(session.leg_points[:n])
     est = np.stack([p.points for p in poses])
@@ -125,6 +133,11 @@ def evaluate(session: Any, *, preset: str = "default", cue: str | None = None, s
     vis = rendered.trackable(min_pixels=max(20, int(200 * scale)))[:n]
     err = np.linalg.norm(est - truth, axis=-1)  # T, 2, 5
     swapped = np.linalg.norm(est[:, ::-1] - truth, axis=-1)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        u = intr.fx * truth[..., 0] / truth[..., 2] + intr.cx
+        v = intr.fy * truth[..., 1] / truth[..., 2] + intr.cy
+    inside = (truth[..., 2] > 0) & (u >= 0) & (u < intr.width) & (v >= 0) & (v < intr.height)  # (T, 2, 5)
+    score.in_image_pct = {name: float(np.mean(inside[:, :, k]) * 100) for k, name in enumerate(LEG_POINTS)}
     if vis.any():
         score.joint_err_cm = {name: float(np.nanmean(err[vis][:, :, k]) * 100) for k, name in enumerate(LEG_POINTS)}
         per_frame = np.nanmean(err[vis], axis=(1, 2))

@@ -20,7 +20,9 @@ lives in the floor-aligned *body* frame of :mod:`walker_gait.core.leg_model`):
    diffuse-that-partition → weight (``β_layer`` × stage likelihood) → resample.  Leg stages
    use only that leg's terms, with the other leg held at the current estimate
    (``ref`` foreground costs and ref render), which removes the other leg's noise from the
-   weights;
+   weights.  With ``fine_2d_only`` (``default``) the coarse layers weigh with the cheap 3D cue
+   alone and only each stage's final layer adds the rendered 2D cue (coarse-to-fine: the
+   render is ~40 % of the cost);
 5. final weights with the full likelihood; estimate = weighted mean (points and angles);
 6. hidden-part handling: per-segment visibility of the estimate by comparing its rendered
    depth with the observed depth, a VISIBLE/HIDDEN state machine per segment (seed 003
@@ -111,6 +113,7 @@ class TrackerConfig:
     root_layers: int = 1  # layers of the root (hips/pelvis/shape) partition, <= n_layers
     anneal_betas: tuple[float, ...] = (1.0,)  # likelihood exponent per layer (last = final)
     layer_noise_decay: float = 0.5  # noise factor between successive layers
+    fine_2d_only: bool = False  # combined cue: coarse annealing layers weigh with the 3D cue alone (2D cue in the final layer of each partition)
     resample_scheme: str = "systematic"
     init_rounds: int = 4  # extra search rounds (all partitions, shrinking noise) on (re-)init
     init_noise_gain: float = 3.0  # noise gain of the first search round
@@ -194,8 +197,11 @@ DEFAULT = TrackerConfig(
     anneal_betas=(0.5, 1.0),
     velocity_damping=0.7,
     init_rounds=6,
+    fine_2d_only=True,
+    sigma_root=0.008,
 )
-"""Real-time preset: partitioned annealed sampling with 96 particles, 64x48 2D cue."""
+"""Real-time preset: partitioned annealed sampling with 96 particles; coarse layers weighted by the 3D
+cue, final layers by the combined cue with a 64x48 2D cue."""
 
 PRESETS: dict[str, TrackerConfig] = {"paper": PAPER, "default": DEFAULT}
 
@@ -397,6 +403,7 @@ class LegTracker:
         legs: tuple[int, ...],
         ref: _Reference | None,
         kin: Kinematics | None = None,
+        use_2d: bool = True,
     ) -> FloatArray:
         """Log likelihood ``(P,)`` of ``states`` using the segments of ``legs`` (+ ``ref``)."""
         cfg = self.config
@@ -414,7 +421,7 @@ class LegTracker:
                 active=self._active(legs),
                 cue_image=frame.cue,
             )
-        if cfg.cue in ("2d", "combined"):
+        if cfg.cue == "2d" or (cfg.cue == "combined" and use_2d):
             # Only pixels some particle renders differ between particles; every other pixel adds the
             # same cost to all of them, which normalised (log) weights ignore, so the 2D cue is
             # evaluated over the particles' own bbox (identical weights, less work than eq. 9's
@@ -505,7 +512,9 @@ class LegTracker:
             for layer in range(n_layers):
                 layer_gain = gain * cfg.layer_noise_decay**layer
                 x_new, kin = self._diffuse(x, dims, layer_gain)
-                ll = self._evaluate(frame, x_new, legs=legs, ref=ref, kin=kin)
+                # coarse layers may skip the 2D cue of the combined likelihood (`fine_2d_only`)
+                use_2d = not (cfg.fine_2d_only and layer < n_layers - 1)
+                ll = self._evaluate(frame, x_new, legs=legs, ref=ref, kin=kin, use_2d=use_2d)
                 if final and k == len(stages) - 1 and layer == n_layers - 1:
                     self._last_ll = b[layer] * ll
                     return x_new
