@@ -27,7 +27,7 @@ test: setup
 	@bash tools/run_tests.sh $(ARGS)
 
 bench: setup
-	@$(PY) -m walker_gait.bench $(ARGS)
+	@OMP_NUM_THREADS=$${OMP_NUM_THREADS:-1} $(PY) -m walker_gait.bench $(ARGS)
 
 clean:
 	rm -rf build $(OUT) .pytest_cache .hypothesis

@@ -94,8 +94,9 @@ class GaitConfig:
     """Half width (s) of the local quadratic smoother; also the minimum analysis latency."""
     rest_window_s: float = 0.15
     """Window (s) over which a point's mean speed decides whether it is at rest."""
-    rest_speed_mps: float = 0.15
-    """A point moving slower than this (m/s, world, mean over ``rest_window_s``) is at rest."""
+    rest_speed_mps: float = 0.25
+    """A point moving slower than this (m/s, world, mean over ``rest_window_s``) is at rest (a swinging
+    heel moves at 1-4 m/s; tracked heels jitter by a few cm per frame, which 0.15 m/s mistook for motion)."""
     min_swing_distance_m: float = 0.06
     """A foot must leave its resting place by at least this (m, horizontal) to count as a
     swing; smaller motions (shuffling in place, tracker jitter) produce no events."""
