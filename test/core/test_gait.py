@@ -330,3 +330,20 @@ def test_matcher_pairs_by_time_and_foot() -> None:
     pairs, ug, ud = match_steps(gt, det, max_dt=0.25)
     assert sorted(pairs) == [(0, 1), (1, 0)]
     assert ug == [2] and sorted(ud) == [2, 3]
+
+
+def test_implausible_step_geometry_is_flagged_not_dropped() -> None:
+    """A step outside the plausible geometry (here: a limit below the true ~0.5 m steps) is still
+    reported, with low confidence, and kept out of the summary means."""
+    sim = simulate_gait(SCENARIOS["normal"], rng=np.random.default_rng(0))
+    strict = GaitConfig(max_step_length_m=0.3)
+    ga = run_analyzer(sim.poses, sim.floor, config=strict)
+    normal = run_analyzer(sim.poses, sim.floor)
+    assert len(ga.steps) == len(normal.steps) > 0
+    long_steps = [s for s in ga.steps if s.step_length > 0.3]
+    assert long_steps and all(s.confidence <= 0.25 for s in long_steps)
+    assert all(s.confidence > 0.95 for s in normal.steps)
+    mean = ga.summary().step_length_mean  # whole session
+    assert math.isnan(mean) or mean <= 0.3
+    with pytest.raises(GaitInputError):
+        GaitConfig(implausible_quality=2.0)

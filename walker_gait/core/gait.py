@@ -136,6 +136,15 @@ class GaitConfig:
     """Default rolling-window length (s) of :meth:`GaitAnalyzer.summary`'s WINDOW scope."""
     summary_min_confidence: float = 0.5
     """Steps below this confidence are counted but excluded from summary means."""
+    max_step_length_m: float = 1.2
+    """A step longer than this (m) is physically implausible behind a walker: reported, but its
+    confidence is multiplied by ``implausible_quality`` (a tracking error, not a step)."""
+    max_backward_step_m: float = 0.15
+    """Likewise for a step length below ``-max_backward_step_m`` (m, a large backward step)."""
+    max_step_width_m: float = 0.6
+    """Likewise for a step width above this (m)."""
+    implausible_quality: float = 0.25
+    """Confidence factor of a step with implausible geometry (keeps it out of summary means)."""
     odometry_base_yaw_rad: float = math.pi
     """Yaw (rad) of the walker frame's +x axis in the odometry base frame (base x forward,
     walker x towards the user: pi)."""
@@ -155,6 +164,8 @@ class GaitConfig:
             "event_fit_post_s": self.event_fit_post_s,
             "max_gap_s": self.max_gap_s,
             "double_support_max_s": self.double_support_max_s,
+            "max_step_length_m": self.max_step_length_m,
+            "max_step_width_m": self.max_step_width_m,
             "max_step_time_s": self.max_step_time_s,
             "summary_window_s": self.summary_window_s,
             "history_s": self.history_s,
@@ -168,6 +179,8 @@ class GaitConfig:
             raise GaitInputError(f"GaitConfig.baseline_percentile must be in (0, 100), got {self.baseline_percentile}")
         if self.history_s < self.baseline_window_s + 2 * self.double_support_max_s:
             raise GaitInputError("GaitConfig.history_s must exceed baseline_window_s + 2*double_support_max_s")
+        if not (self.max_backward_step_m >= 0 and 0 <= self.implausible_quality <= 1):
+            raise GaitInputError("GaitConfig.max_backward_step_m must be >= 0 and implausible_quality in [0, 1]")
 
 
 @dataclass(kw_only=True)
@@ -950,6 +963,10 @@ class GaitAnalyzer:
             conf *= 0.5
         if not np.all(np.isfinite(d)):
             conf = 0.0
+        cfg = self.config
+        if (step_length > cfg.max_step_length_m or step_length < -cfg.max_backward_step_m
+                or step_width > cfg.max_step_width_m):
+            conf *= cfg.implausible_quality
         step = Step(
             stamp=t1,
             side=Side(a),
