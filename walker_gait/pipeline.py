@@ -91,6 +91,7 @@ class PipelineOptions:
         seg.pop("seed", None)
         seg.pop("use_rectified", None)
         d2c.pop("input_reliability", None)  # live transport only
+        trk.pop("input_depth", None)  # live transport only
         window = float(gait.pop("summary_window", 10.0))
         gait.pop("use_odometry", None)
         options = cls(

@@ -219,3 +219,19 @@ def test_leg_tracker_holds_frames_until_camera_info(rclpy_context: None) -> None
         assert len(joints) == WAITING_IMAGES + 1
     finally:
         node.destroy_node()
+
+
+def test_leg_tracker_input_depth_sets_the_queue_and_is_validated(rclpy_context: None) -> None:
+    from walker_gait.config import ParameterError
+    from walker_gait.ros.base import stream_in
+    from walker_gait.ros.nodes import LegTrackerNode
+
+    assert stream_in(3).depth == 3
+    with pytest.raises(ParameterError):
+        stream_in(0)
+    node = LegTrackerNode(parameter_overrides=[rclpy.parameter.Parameter("input_depth", value=4)])
+    try:
+        depths = {s.topic_name: s.qos_profile.depth for s in node.subscriptions}
+        assert depths["/foreground/points"] == depths["/foreground/mask"] == depths["/floor_plane"] == 4
+    finally:
+        node.destroy_node()

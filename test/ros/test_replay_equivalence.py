@@ -29,8 +29,9 @@ def test_replay_into_live_graph_matches_offline_process(walking_session: Path, t
     assert len(offline.steps) >= 3, "the session must contain steps for the comparison to mean anything"
     # Slow enough that no stage drops a frame on a 2-core machine shared by 6 processes: by design the
     # live graph drops frames rather than queueing them when a node is slower than the camera. The
-    # tracker's first frame (initial search) takes several frame periods and its input queue holds 5.
-    live = run_live(walking_session, rate=0.15, timeout_s=300)
+    # tracker's first frame (initial search) takes several frame periods, so its input queue holds 5
+    # here (the default, 2, favours latency over completeness).
+    live = run_live(walking_session, rate=0.15, timeout_s=300, params=("leg_tracker.input_depth=5",))
     assert live.run_exit_code == 0
     missing = [(t - (live.first_stamp_ns or 0)) / 1e9 for t in live.missing_stamps_ns]
     assert live.joint_states == offline.frames, f"the live graph dropped frames at t = {missing} s after the first"

@@ -51,8 +51,11 @@ class LiveResult:
         return float(np.polyfit(x, y, 1)[0])
 
 
-def run_live(path: Path, *, rate: float = 1.0, timeout_s: float = 120.0, settle_s: float = 3.0) -> LiveResult:
-    """Replay ``path`` through ``walker-gait run`` and collect what the graph publishes."""
+def run_live(path: Path, *, rate: float = 1.0, timeout_s: float = 120.0, settle_s: float = 3.0,
+             params: tuple[str, ...] = ()) -> LiveResult:
+    """Replay ``path`` through ``walker-gait run`` and collect what the graph publishes.
+
+    ``params``: extra ``NODE.PARAM=VALUE`` overrides for the graph."""
     import rclpy
     from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
@@ -99,6 +102,8 @@ def run_live(path: Path, *, rate: float = 1.0, timeout_s: float = 120.0, settle_
     graph = [sys.executable, "-m", "walker_gait.cli", "run", "--nodes",
              "depth_to_cloud,floor_segmentation,leg_tracker,gait_analyzer",
              "--param", "depth_to_cloud.input_reliability=reliable"]
+    for p in params:
+        graph += ["--param", p]
     run = subprocess.Popen(graph, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
                            start_new_session=True)
     replay: subprocess.Popen[str] | None = None

@@ -40,6 +40,14 @@ STREAM_IN = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=5, reliability=Rel
                        durability=DurabilityPolicy.VOLATILE)
 
 
+def stream_in(depth: int) -> QoSProfile:
+    """:data:`STREAM_IN` with another queue depth (``leg_tracker.input_depth``)."""
+    if depth < 1:
+        raise ParameterError(f"input_depth must be >= 1, got {depth}")
+    return QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=depth, reliability=ReliabilityPolicy.RELIABLE,
+                      durability=DurabilityPolicy.VOLATILE)
+
+
 def input_qos(reliability: str) -> QoSProfile:
     """Camera-input QoS: ``best_effort`` (default; matches every driver) or ``reliable`` (reliable sources)."""
     if reliability == "best_effort":

@@ -32,6 +32,7 @@ from walker_gait.ros.base import (
     WalkerNode,
     input_qos,
     spin_node,
+    stream_in,
 )
 
 
@@ -196,9 +197,12 @@ class LegTrackerNode(WalkerNode):
         self.pub_track = self.raw_publisher(M.LEG_TRACK, "leg_track", STREAM)
         self.pub_markers = self.raw_publisher(M.MARKER_ARRAY, "leg_markers", STREAM)
         self.raw_subscription(M.CAMERA_INFO, "depth/camera_info", self.on_info, SENSOR_IN)
-        self.raw_subscription(M.POINT_CLOUD2, "foreground/points", lambda m: self.on_part("points", m), STREAM_IN)
-        self.raw_subscription(M.IMAGE, "foreground/mask", lambda m: self.on_part("mask", m), STREAM_IN)
-        self.raw_subscription(M.FLOOR_PLANE, "floor_plane", lambda m: self.on_part("floor", m), STREAM_IN)
+        # a short queue (default 2): a tracker slower than the camera works on recent frames instead of a
+        # queue of old ones (latency); depth 1 loses more frames to the three topics' exact-stamp sync
+        qos_in = stream_in(int(self.declare_parameter("input_depth", 2).value))
+        self.raw_subscription(M.POINT_CLOUD2, "foreground/points", lambda m: self.on_part("points", m), qos_in)
+        self.raw_subscription(M.IMAGE, "foreground/mask", lambda m: self.on_part("mask", m), qos_in)
+        self.raw_subscription(M.FLOOR_PLANE, "floor_plane", lambda m: self.on_part("floor", m), qos_in)
         self.latencies: list[float] = []
         self._waiting: deque[dict[str, Any]] = deque()  # complete frames held until the first CameraInfo
 
