@@ -30,7 +30,10 @@ lives in the floor-aligned *body* frame of :mod:`walker_gait.core.leg_model`):
    segment re-appears, its leg is searched with ``reappear_noise_gain`` × noise for
    ``reappear_frames`` frames;
 7. status/confidence from the foreground support of the estimate; a lost track
-   (confidence < ``lost_confidence`` for ``lost_frames`` frames) re-initialises.
+   (confidence < ``lost_confidence`` for ``lost_frames`` frames) re-initialises, and so does
+   a track that leaves foreground unexplained (less than ``min_explained`` of it within
+   ``support_tol`` of the model for ``lost_frames`` frames: e.g. both model legs locked on the
+   one leg that was in view when the user walked in, the other leg now visible).
 
 Left/right identity: the state keeps the left hip at +y (anatomical left) of the right hip
 (``|hip_azimuth| < 0.7``) and the detection assigns blobs by the same axis, so legs cannot
@@ -133,6 +136,7 @@ class TrackerConfig:
     degraded_confidence: float = 0.4  # below: DEGRADED
     lost_confidence: float = 0.25  # below this for `lost_frames` frames: re-initialise
     lost_frames: int = 8
+    min_explained: float = 0.0  # fraction of foreground the estimate must explain; below it for `lost_frames` frames: re-initialise (0 = off)
     support_tol: float = 0.04  # m, surface distance counted as support for the confidence
     fg_min_height: float = 0.03  # m, floor cut of the segmentation (model surface below it is unobservable)
 
@@ -197,6 +201,7 @@ DEFAULT = TrackerConfig(
     anneal_betas=(0.5, 1.0),
     velocity_damping=0.7,
     init_rounds=6,
+    min_explained=0.85,
     fine_2d_only=True,
     sigma_root=0.008,
 )
@@ -286,6 +291,7 @@ class LegTracker:
         self._mean: FloatArray | None = None
         self._last_ll: FloatArray | None = None
         self._low_conf = 0
+        self._explained = 1.0
         self._frames_tracked = 0
         self._hidden = _HiddenState()
         self.status = TrackStatus.NO_USER
@@ -340,7 +346,9 @@ class LegTracker:
         self._last_ll = None
         pose, conf = self._estimate(frame, stamp)
         # track management
-        if conf < cfg.lost_confidence:
+        if conf < cfg.lost_confidence or self._explained < cfg.min_explained:
+            # lost, or locked onto part of the user (e.g. both model legs on the one leg that was in view
+            # when the track started, the other leg unexplained): re-detect from the foreground
             self._low_conf += 1
         else:
             self._low_conf = 0
@@ -668,6 +676,7 @@ class LegTracker:
         tol = self.config.support_tol
         fg_cost = foreground_costs(seg_c, rad, fg=frame.fg, n=self.config.n_skeleton)[0]
         explained = float(np.mean(fg_cost < tol)) if fg_cost.size else 0.0
+        self._explained = explained
         pts, wd = skeleton_points(seg_c, rad, n=self.config.n_skeleton)
         pts = pts.reshape(-1, 3)
         wd = wd.ravel()
