@@ -201,7 +201,7 @@ DEFAULT = TrackerConfig(
     anneal_betas=(0.5, 1.0),
     velocity_damping=0.7,
     init_rounds=6,
-    min_explained=0.85,
+    min_explained=0.75,
     fine_2d_only=True,
     sigma_root=0.008,
 )
