@@ -87,7 +87,7 @@ def render(session: Any, max_frames: int | None = None) -> Rendered:
 
 def evaluate(session: Any, *, preset: str = "default", cue: str | None = None, seed: int = 0,
              max_frames: int | None = None, overrides: dict[str, Any] | None = None,
-             rendered: Rendered | None = None, debug_steps: list[Step] | None = None) -> Score:
+             rendered: Rendered | None = None) -> Score:
     """Run the pipeline on ``session`` (a ``walker_gait.synth.Session``) and score it."""
     import dataclasses
 
@@ -121,8 +121,6 @@ def evaluate(session: Any, *, preset: str = "default", cue: str | None = None, s
         poses.append(res.pose)
         steps.extend(res.steps)
     steps.extend(proc.finish()[1])
-    if debug_steps is not None:
-        debug_steps.extend(steps)
     score = Score(scenario=session.spec.scenario, preset=preset, cue=tracker.cue, frames=n,
                   ms_per_frame={k: v / max(n, 1) for k, v in timing.items()})
     if tracker_ms:

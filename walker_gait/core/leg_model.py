@@ -236,7 +236,8 @@ class Kinematics:
     """Output of :func:`forward_kinematics` (body frame, metres).
 
     ``segments`` (P, 2, 3, 2, 3): [particle, side, SEGMENTS, proximal/distal, xyz]; the foot's
-    proximal/distal ends are the heel/toe points on the sole axis.
+    proximal/distal ends lie on the heel-toe sole axis, inset from the heel/toe points by their radii
+    (``FOOT_CAP_INSET``).
     ``radii`` (P, 2, 3, 2): radii at the segment ends.
     ``points`` (P, 2, 5, 3): LEG_POINTS.
     ``foot_lateral`` (P, 2, 3): unit lateral axis of each foot (sole plane, +y of the foot frame).
@@ -291,7 +292,7 @@ def forward_kinematics(states: FloatArray) -> Kinematics:
         segments[:, side, 2, 1] = toe - fwd * (FOOT_CAP_INSET * r_toe)[:, None]
         radii[:, side, 0, 0], radii[:, side, 0, 1] = r_th, THIGH_TAPER * r_th
         radii[:, side, 1, 0], radii[:, side, 1, 1] = r_ca, CALF_TAPER * r_ca
-        radii[:, side, 2, 0], radii[:, side, 2, 1] = FOOT_HEEL_RADIUS * l_ft, FOOT_TOE_RADIUS * l_ft
+        radii[:, side, 2, 0], radii[:, side, 2, 1] = r_heel, r_toe
         points[:, side, HIP], points[:, side, KNEE], points[:, side, ANKLE] = hip, knee, ankle
         points[:, side, HEEL], points[:, side, TOE] = heel, toe
         lateral[:, side] = r_foot[:, :, 1]

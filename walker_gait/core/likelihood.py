@@ -239,22 +239,26 @@ class CueImage:
         h = pts @ self.floor_normal + self.floor_offset
         return h + widths < self.min_height + margin
 
-    def occluded(self, pts: FloatArray, widths: FloatArray, *, tol: float) -> BoolArray:
-        """``(...)`` True where camera-frame skeleton points are out of the image or hidden.
-
-        Hidden: the observed depth at the point's pixel is smaller than the model's front
-        surface ``z - width`` by more than ``tol`` (something observed is in front of it).
-        """
+    def observed_at(self, pts: FloatArray) -> tuple[BoolArray, F32]:
+        """``(inside, obs)`` for camera-frame points ``(..., 3)``: whether each projects into the cue
+        image (in front of the camera), and the observed depth at its pixel (0 = background/outside)."""
         intr = self.intrinsics
         z = pts[..., 2]
         with np.errstate(divide="ignore", invalid="ignore"):
             u = np.rint(intr.fx * pts[..., 0] / z + intr.cx)
             v = np.rint(intr.fy * pts[..., 1] / z + intr.cy)
         inside = (z > 0.05) & (u >= 0) & (u < intr.width) & (v >= 0) & (v < intr.height)
-        ui = np.where(inside, u, 0).astype(np.intp)
-        vi = np.where(inside, v, 0).astype(np.intp)
-        obs = self.depth[vi, ui]
-        hidden = (obs > 0) & (obs < z - widths - tol)
+        obs = self.depth[np.where(inside, v, 0).astype(np.intp), np.where(inside, u, 0).astype(np.intp)]
+        return inside, np.where(inside, obs, np.float32(0.0))
+
+    def occluded(self, pts: FloatArray, widths: FloatArray, *, tol: float) -> BoolArray:
+        """``(...)`` True where camera-frame skeleton points are out of the image or hidden.
+
+        Hidden: the observed depth at the point's pixel is smaller than the model's front
+        surface ``z - width`` by more than ``tol`` (something observed is in front of it).
+        """
+        inside, obs = self.observed_at(pts)
+        hidden = (obs > 0) & (obs < pts[..., 2] - widths - tol)
         return ~inside | hidden
 
 

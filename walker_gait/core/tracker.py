@@ -291,7 +291,6 @@ class LegTracker:
         self._mean: FloatArray | None = None
         self._last_ll: FloatArray | None = None
         self._low_conf = 0
-        self._explained = 1.0
         self._frames_tracked = 0
         self._hidden = _HiddenState()
         self.status = TrackStatus.NO_USER
@@ -344,9 +343,9 @@ class LegTracker:
         else:
             self._logw = self._evaluate(frame, self._x, legs=(0, 1), ref=None)
         self._last_ll = None
-        pose, conf = self._estimate(frame, stamp)
+        pose, conf, explained = self._estimate(frame, stamp)
         # track management
-        if conf < cfg.lost_confidence or self._explained < cfg.min_explained:
+        if conf < cfg.lost_confidence or explained < cfg.min_explained:
             # lost, or locked onto part of the user (e.g. both model legs on the one leg that was in view
             # when the track started, the other leg unexplained): re-detect from the foreground
             self._low_conf += 1
@@ -618,7 +617,8 @@ class LegTracker:
         self._low_conf = 0
 
     # -- estimate, visibility, confidence ----------------------------------------------
-    def _estimate(self, frame: _Frame, stamp: float) -> tuple[LegPose, float]:
+    def _estimate(self, frame: _Frame, stamp: float) -> tuple[LegPose, float, float]:
+        """Pose estimate, its confidence and the fraction of foreground it explains."""
         assert self._x is not None and self._logw is not None
         w = normalise_log_weights(self._logw)
         mean = w @ self._x
@@ -628,7 +628,7 @@ class LegTracker:
         self._mean = mean_c[0]
         seg_c, rad = self._cam_segments(frame, kin_mean, (0, 1))
         visibility = self._visibility(frame, seg_c, rad)
-        conf = self._confidence(frame, seg_c, rad)
+        conf, explained = self._confidence(frame, seg_c, rad)
         if self.config.hidden_parts:
             self._update_hidden(visibility)
         pose = LegPose(
@@ -642,7 +642,7 @@ class LegTracker:
             confidence=conf,
             ess=effective_sample_size(self._logw),
         )
-        return pose, conf
+        return pose, conf, explained
 
     def _visibility(self, frame: _Frame, seg_c: FloatArray, rad: FloatArray) -> FloatArray:
         """``(2, 3)`` fraction of each segment's axis points whose pixel shows its surface.
@@ -657,35 +657,29 @@ class LegTracker:
         cue = frame.cue
         pts, wd = skeleton_points(seg_c, rad, n=_VIS_POINTS)  # (1, 6, K, 3), (1, 6, K)
         pts, wd = pts[0], wd[0]
-        intr = cue.intrinsics
-        z = pts[..., 2]
-        with np.errstate(divide="ignore", invalid="ignore"):
-            u = np.rint(intr.fx * pts[..., 0] / z + intr.cx)
-            v = np.rint(intr.fy * pts[..., 1] / z + intr.cy)
-        inside = (z > 0.05) & (u >= 0) & (u < intr.width) & (v >= 0) & (v < intr.height)
-        obs = cue.depth[np.where(inside, v, 0).astype(np.intp), np.where(inside, u, 0).astype(np.intp)]
-        seen = inside & (obs > 0) & (obs >= z - wd - 0.05)
+        inside, obs = cue.observed_at(pts)
+        seen = inside & (obs > 0) & (obs >= pts[..., 2] - wd - 0.05)
         counted = ~cue.below_cut(pts, wd) if cue.min_height > 0 else np.ones_like(seen)
         n = counted.sum(axis=1)
         vis = np.where(n > 0, (seen & counted).sum(axis=1) / np.maximum(n, 1), 0.0)
         return vis.reshape(2, 3)
 
-    def _confidence(self, frame: _Frame, seg_c: FloatArray, rad: FloatArray) -> float:
-        """Fraction of foreground explained (surface distance < support_tol), averaged with the
-        fraction of unoccluded model skeleton points supported by foreground."""
+    def _confidence(self, frame: _Frame, seg_c: FloatArray, rad: FloatArray) -> tuple[float, float]:
+        """``(confidence, explained)``: ``explained`` = fraction of foreground explained (surface
+        distance < support_tol); the confidence averages it with the fraction of unoccluded model
+        skeleton points supported by foreground."""
         tol = self.config.support_tol
         fg_cost = foreground_costs(seg_c, rad, fg=frame.fg, n=self.config.n_skeleton)[0]
         explained = float(np.mean(fg_cost < tol)) if fg_cost.size else 0.0
-        self._explained = explained
         pts, wd = skeleton_points(seg_c, rad, n=self.config.n_skeleton)
         pts = pts.reshape(-1, 3)
         wd = wd.ravel()
         occ = frame.cue.occluded(pts, wd, tol=0.04)
         if frame.fg.shape[0] == 0 or np.all(occ):
-            return explained
+            return explained, explained
         d = np.sqrt(((pts[~occ, None, :] - frame.fg[None, :, :]) ** 2).sum(-1)).min(axis=1)
         supported = float(np.mean(np.abs(d - wd[~occ]) < tol))
-        return 0.5 * (explained + supported)
+        return 0.5 * (explained + supported), explained
 
     def _update_hidden(self, visibility: FloatArray) -> None:
         cfg = self.config

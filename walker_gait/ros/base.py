@@ -34,28 +34,32 @@ SENSOR_IN = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=5, reliability=Rel
 #: Per-frame streams between our nodes and to visualisers: reliable, keep last 5.
 STREAM = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=5, reliability=ReliabilityPolicy.RELIABLE,
                     durability=DurabilityPolicy.VOLATILE)
-#: Per-frame stream subscriptions between our nodes: reliable keep-last-5 — large fragmented messages are
-#: not lost to a dropped fragment, and a slow node still only ever sees the newest 5 (no growing backlog).
-STREAM_IN = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=5, reliability=ReliabilityPolicy.RELIABLE,
-                       durability=DurabilityPolicy.VOLATILE)
 
 
 def stream_in(depth: int) -> QoSProfile:
-    """:data:`STREAM_IN` with another queue depth (``leg_tracker.input_depth``)."""
+    """Per-frame stream subscription between our nodes: reliable, keep last ``depth``, volatile."""
     if depth < 1:
         raise ParameterError(f"input_depth must be >= 1, got {depth}")
     return QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=depth, reliability=ReliabilityPolicy.RELIABLE,
                       durability=DurabilityPolicy.VOLATILE)
 
 
+#: Per-frame stream subscriptions between our nodes: reliable keep-last-5 — large fragmented messages are
+#: not lost to a dropped fragment, and a slow node still only ever sees the newest 5 (no growing backlog).
+#: (``leg_tracker`` uses :func:`stream_in` with its ``input_depth``.)
+STREAM_IN = stream_in(5)
+
+
 def input_qos(reliability: str) -> QoSProfile:
-    """Camera-input QoS: ``best_effort`` (default; matches every driver) or ``reliable`` (reliable sources)."""
+    """Camera-input QoS: ``best_effort`` (default; matches every driver) or ``reliable`` (reliable sources,
+    same profile as :data:`STREAM_IN`)."""
     if reliability == "best_effort":
         return SENSOR_IN
     if reliability == "reliable":
-        return QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=5, reliability=ReliabilityPolicy.RELIABLE,
-                          durability=DurabilityPolicy.VOLATILE)
+        return STREAM_IN
     raise ParameterError(f"input_reliability must be 'best_effort' or 'reliable', got {reliability!r}")
+
+
 #: Discrete gait events and steps: reliable, keep last 100 — none lost to a briefly slow subscriber.
 EVENTS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=100, reliability=ReliabilityPolicy.RELIABLE,
                     durability=DurabilityPolicy.VOLATILE)
