@@ -12,8 +12,9 @@ import dataclasses
 import json
 import sys
 import time
+import warnings
 from collections import Counter
-from collections.abc import Mapping
+from collections.abc import Iterator, Mapping
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
 from typing import Any
@@ -46,6 +47,7 @@ class PipelineOptions:
     camera_info_file: str | None = None
     write_mcap: bool = True
     write_report: bool = True
+    prefetch: int = 4  # frames decoded + segmented ahead in a worker thread (0: all in the calling thread)
 
     def __post_init__(self) -> None:
         from walker_gait.core.gait import GaitConfig
@@ -122,17 +124,49 @@ class FrameResult:
     timings_ms: dict[str, float]
 
 
+@dataclasses.dataclass
+class PreparedFrame:
+    """One depth image decoded, back-projected and segmented: what the tracker stage needs."""
+
+    stamp: float
+    intrinsics: CameraIntrinsics
+    points: np.ndarray  # (N, 3) foreground points, camera optical frame
+    depth_fg: np.ndarray  # (H, W) foreground depth, NaN elsewhere
+    floor: FloorPlane
+    timings_ms: dict[str, float]
+
+    def __getstate__(self) -> dict[str, Any]:
+        # pickled between processes (`prefetch`): the foreground depth travels sparse (a few % of pixels)
+        state = dict(self.__dict__)
+        depth = state.pop("depth_fg")
+        flat = depth.ravel()
+        idx = np.flatnonzero(~np.isnan(flat))
+        state["_depth_sparse"] = (depth.shape, depth.dtype.str, idx.astype(np.int32), flat[idx])
+        return state
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        shape, dtype, idx, values = state.pop("_depth_sparse")
+        depth = np.full(int(np.prod(shape)), np.nan, dtype=np.dtype(dtype))
+        depth[idx] = values
+        state["depth_fg"] = depth.reshape(shape)
+        self.__dict__.update(state)
+
+
 class FrameProcessor:
-    """All stages for one camera, frame by frame (the offline twin of the live node graph)."""
+    """All stages for one camera, frame by frame (the offline twin of the live node graph).
+
+    Two halves that may run in different threads, each touching only its own state:
+    :meth:`set_camera_info` + :meth:`prepare` (decode, back-project, segment) and :meth:`track`
+    (tracker + gait analyzer); :meth:`process` runs both.
+    """
 
     def __init__(self, options: PipelineOptions) -> None:
+        from walker_gait.config import stage_rng
         from walker_gait.core.depth import DepthProjector
         from walker_gait.core.gait import GaitAnalyzer
         from walker_gait.core.segmentation import Segmenter
 
         self.options = options
-        from walker_gait.config import stage_rng
-
         self.projector = DepthProjector()
         self.segmenter = Segmenter(options.segmenter, rng=stage_rng(options.seed, "floor_segmentation"))
         self.tracker: Any = None
@@ -140,12 +174,11 @@ class FrameProcessor:
         self.undistorter: Any = None
         self.intrinsics: CameraIntrinsics | None = None
         self._info_key: Any = None
+        self._tracker_intrinsics: CameraIntrinsics | None = None
 
     def set_camera_info(self, info: Any) -> None:
         """Apply a CameraInfo (``CameraInfoData`` or any object with width/height/k/d/p/distortion_model)."""
-        from walker_gait.config import stage_rng
         from walker_gait.core.depth import intrinsics_from_camera_info
-        from walker_gait.core.tracker import LegTracker
 
         key = (info.width, info.height, tuple(info.k), tuple(info.d), tuple(info.p), info.distortion_model)
         if key == self._info_key:
@@ -157,17 +190,14 @@ class FrameProcessor:
         self.undistorter = undist
         self.projector.set_intrinsics(intr)
         self.segmenter.set_intrinsics(intr)
-        if intr != self.intrinsics:
-            self.intrinsics = intr
-            self.tracker = LegTracker(self.options.tracker, intr, rng=stage_rng(self.options.seed, "leg_tracker"),
-                                      mounting=self.options.mounting)
+        self.intrinsics = intr
 
-    def process(self, *, stamp: float, data: Any, encoding: str, width: int, height: int, step: int,
-                is_bigendian: bool) -> FrameResult:
-        """Run every stage on one depth image (call :meth:`set_camera_info` first)."""
+    def prepare(self, *, stamp: float, data: Any, encoding: str, width: int, height: int, step: int,
+                is_bigendian: bool) -> PreparedFrame:
+        """Decode, back-project and segment one depth image (call :meth:`set_camera_info` first)."""
         from walker_gait.core.depth import check_info_matches, decode_depth
 
-        if self.intrinsics is None or self.tracker is None:
+        if self.intrinsics is None:
             raise MissingCalibration("no CameraInfo for this depth frame")
         t0 = time.perf_counter()
         check_info_matches(self.intrinsics, width=width, height=height)
@@ -179,15 +209,33 @@ class FrameProcessor:
         t1 = time.perf_counter()
         seg = self.segmenter.process(depth, points)
         t2 = time.perf_counter()
-        pose = self.tracker.update(stamp=stamp, points=seg.points, depth_fg=seg.foreground_depth(depth),
-                                   floor=seg.floor)
+        return PreparedFrame(stamp=stamp, intrinsics=self.intrinsics, points=seg.points,
+                             depth_fg=seg.foreground_depth(depth), floor=seg.floor,
+                             timings_ms={"depth": (t1 - t0) * 1e3, "segmentation": (t2 - t1) * 1e3})
+
+    def track(self, frame: PreparedFrame) -> FrameResult:
+        """Tracker and gait analyzer on a prepared frame (a new calibration restarts the tracker)."""
+        from walker_gait.config import stage_rng
+        from walker_gait.core.tracker import LegTracker
+
+        if self.tracker is None or frame.intrinsics != self._tracker_intrinsics:
+            self.tracker = LegTracker(self.options.tracker, frame.intrinsics,
+                                      rng=stage_rng(self.options.seed, "leg_tracker"), mounting=self.options.mounting)
+            self._tracker_intrinsics = frame.intrinsics
+        t2 = time.perf_counter()
+        pose = self.tracker.update(stamp=frame.stamp, points=frame.points, depth_fg=frame.depth_fg, floor=frame.floor)
         t3 = time.perf_counter()
-        events, steps = self.analyzer.update(pose, seg.floor)
+        events, steps = self.analyzer.update(pose, frame.floor)
         t4 = time.perf_counter()
-        timings = {"depth": (t1 - t0) * 1e3, "segmentation": (t2 - t1) * 1e3, "tracker": (t3 - t2) * 1e3,
-                   "gait": (t4 - t3) * 1e3}
-        return FrameResult(pose=pose, floor=seg.floor, events=list(events), steps=list(steps),
-                           n_foreground=len(seg.points), timings_ms=timings)
+        timings = dict(frame.timings_ms, tracker=(t3 - t2) * 1e3, gait=(t4 - t3) * 1e3)
+        return FrameResult(pose=pose, floor=frame.floor, events=list(events), steps=list(steps),
+                           n_foreground=len(frame.points), timings_ms=timings)
+
+    def process(self, *, stamp: float, data: Any, encoding: str, width: int, height: int, step: int,
+                is_bigendian: bool) -> FrameResult:
+        """Run every stage on one depth image (call :meth:`set_camera_info` first)."""
+        return self.track(self.prepare(stamp=stamp, data=data, encoding=encoding, width=width, height=height,
+                                       step=step, is_bigendian=is_bigendian))
 
     def finish(self) -> tuple[list[GaitEvent], list[Step]]:
         events, steps = self.analyzer.finish()
@@ -272,6 +320,110 @@ def _progress(iterable: Any, *, total: int, enabled: bool, desc: str) -> Any:
     return tqdm(iterable, total=total, desc=desc, unit="frame", disable=not sys.stderr.isatty(), leave=False)
 
 
+def _prepare_one(proc: FrameProcessor, frame: Any) -> PreparedFrame | Exception:
+    """Decode and segment ``frame``; a per-frame input problem is returned (the caller skips it in order)."""
+    from walker_gait.core.depth import CameraInfoError, DepthDecodeError
+
+    try:
+        if frame.camera_info is None:
+            raise MissingCalibration(f"no CameraInfo for the frame at {frame.stamp:.3f} s")
+        proc.set_camera_info(frame.camera_info)
+        return proc.prepare(stamp=frame.stamp, data=frame.data, encoding=frame.encoding, width=frame.width,
+                            height=frame.height, step=frame.step, is_bigendian=frame.is_bigendian)
+    except (DepthDecodeError, CameraInfoError, MissingCalibration) as exc:
+        return exc
+
+
+def _prepared_frames(recording: Any, proc: FrameProcessor, *, prefetch: int) -> Iterator[tuple[Any, Any]]:
+    """``(frame, PreparedFrame or per-frame error)`` in recording order.
+
+    With ``prefetch`` > 0 (and ``fork`` available) a worker process reads, decodes and segments up
+    to that many frames ahead while the caller tracks: the two halves run on two cores.  Results
+    are identical to the inline path: the front half's state (projector, segmenter and its seeded
+    RNG) is forked once and only the worker advances it, and :meth:`FrameProcessor.track` takes the
+    calibration from each prepared frame.  The recording's warnings are re-issued here in order; an
+    error reading the recording is raised here.
+    """
+    import multiprocessing as mp
+
+    if prefetch <= 0 or "fork" not in mp.get_all_start_methods() or mp.current_process().daemon:
+        for frame in recording.iter_frames():
+            yield frame, _prepare_one(proc, frame)
+        return
+    import queue as queue_mod
+
+    ctx = mp.get_context("fork")
+    q = ctx.Queue(maxsize=prefetch)
+    worker = ctx.Process(target=_front_worker, args=(q, recording, proc), name="walker-gait-prepare", daemon=True)
+    worker.start()
+    try:
+        while True:
+            try:
+                kind, payload, caught = q.get(timeout=1.0)
+            except queue_mod.Empty:
+                if not worker.is_alive():
+                    raise RuntimeError(f"the frame-preparing worker process died (exit code {worker.exitcode})")
+                continue
+            for category, text in caught:
+                warnings.warn(text, category, stacklevel=2)
+            if kind == "done":
+                return
+            if kind == "error":
+                raise payload
+            yield payload
+    finally:
+        if worker.is_alive():
+            worker.terminate()
+        worker.join(timeout=5.0)
+        q.close()
+        q.cancel_join_thread()
+
+
+def _front_worker(q: Any, recording: Any, proc: FrameProcessor) -> None:
+    """Worker process of :func:`_prepared_frames` (forked: the recording and processor are copies)."""
+    import signal
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the parent's; it stops this process
+    frames = recording.iter_frames()
+    while True:
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            try:
+                frame = next(frames, None)
+                if frame is None:
+                    item: tuple[str, Any] = ("done", None)
+                else:
+                    prepared = _prepare_one(proc, frame)
+                    item = ("frame", (dataclasses.replace(frame, data=b""), prepared))
+            except Exception as exc:  # noqa: BLE001 - raised in the parent
+                item = ("error", exc)
+        q.put((*item, [(w.category, str(w.message)) for w in caught]))
+        if item[0] != "frame":
+            return
+
+
+def _in_background(fn: Any, *args: Any, **kwargs: Any) -> Any:
+    """Start ``fn(*args, **kwargs)`` in a forked process; returns a callable that waits and re-raises.
+
+    Runs inline where ``fork`` is unavailable or this is already a daemon (``batch`` worker) process.
+    """
+    import multiprocessing as mp
+
+    if "fork" not in mp.get_all_start_methods() or mp.current_process().daemon:
+        fn(*args, **kwargs)
+        return lambda: None
+    pool = ProcessPoolExecutor(max_workers=1, mp_context=mp.get_context("fork"))
+    future = pool.submit(fn, *args, **kwargs)
+
+    def wait() -> None:
+        try:
+            future.result()
+        finally:
+            pool.shutdown(wait=True)
+
+    return wait
+
+
 def process_recording(path: Path, out_dir: Path, *, options: PipelineOptions | None = None,
                       progress: bool = True, ground_truth: Mapping[str, Any] | None = None) -> ProcessResult:
     """Process one recording; write steps/events/joints CSV, summary.json, tracked.mcap, report.html."""
@@ -294,15 +446,13 @@ def process_recording(path: Path, out_dir: Path, *, options: PipelineOptions | N
     tracked: list[tuple[int, str, FrameResult]] = []  # (stamp_ns, frame_id, result) for tracked.mcap
     from walker_gait.core.depth import CameraInfoError, DepthDecodeError
 
-    for frame in _progress(recording.iter_frames(), total=recording.frame_count, enabled=progress,
-                           desc=path.name):
+    for frame, prepared in _progress(_prepared_frames(recording, proc, prefetch=options.prefetch),
+                                     total=recording.frame_count, enabled=progress, desc=path.name):
         n_frames += 1
         try:
-            if frame.camera_info is None:
-                raise MissingCalibration(f"no CameraInfo for the frame at {frame.stamp:.3f} s")
-            proc.set_camera_info(frame.camera_info)
-            res = proc.process(stamp=frame.stamp, data=frame.data, encoding=frame.encoding, width=frame.width,
-                               height=frame.height, step=frame.step, is_bigendian=frame.is_bigendian)
+            if isinstance(prepared, Exception):
+                raise prepared
+            res = proc.track(prepared)
         except (DepthDecodeError, CameraInfoError, MissingCalibration) as exc:
             kind = getattr(exc, "kind", None) or type(exc).__name__
             if not skipped[kind]:
@@ -338,6 +488,15 @@ def process_recording(path: Path, out_dir: Path, *, options: PipelineOptions | N
         "mean_stage_ms": {k: round(v, 3) for k, v in timings.items()},
     }
     files = []
+    report = None
+    if options.write_report:
+        from walker_gait.report import write_report
+
+        # matplotlib takes ~1.5 s: drawn in a second process while this one writes the other files
+        files.append(out_dir / "report.html")
+        report = _in_background(write_report, files[-1], steps=steps, events=events, poses=poses, summary=summary,
+                                metadata=metadata, ground_truth=dict(ground_truth) if ground_truth else None,
+                                floor=floors[-1] if floors else None)
     files.append(out_dir / "steps.csv")
     write_steps_csv(files[-1], steps)
     files.append(out_dir / "events.csv")
@@ -350,13 +509,8 @@ def process_recording(path: Path, out_dir: Path, *, options: PipelineOptions | N
         files.append(out_dir / "tracked.mcap")
         write_tracked_mcap(files[-1], frames=tracked, events=events, steps=steps, summary=summary,
                            particle_count=int(getattr(options.tracker, "n_particles", 0)))
-    if options.write_report:
-        from walker_gait.report import write_report
-
-        files.append(out_dir / "report.html")
-        write_report(files[-1], steps=steps, events=events, poses=poses, summary=summary, metadata=metadata,
-                     ground_truth=dict(ground_truth) if ground_truth else None,
-                     floor=floors[-1] if floors else None)
+    if report is not None:
+        report()
     if processed == 0:
         from walker_gait.io.bags import RecordingError
 

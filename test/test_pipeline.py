@@ -1,0 +1,108 @@
+"""Offline pipeline: the frame-preparing worker process and the background report change nothing but speed.
+
+`process_recording` decodes and segments frames in a forked worker (``prefetch``) and draws the report in
+a second process; results, warnings and errors must be exactly those of the inline path.
+"""
+
+from __future__ import annotations
+
+import warnings
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+
+from walker_gait.io.bags import Recording, RecordingError, RecordingWarning
+from walker_gait.pipeline import PipelineOptions, PreparedFrame, process_recording
+
+
+@pytest.fixture(scope="module")
+def short_session(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    from walker_gait.synth import SessionSpec, generate_session, write_session
+
+    session = generate_session(SessionSpec.preset("normal", duration=2.5, scale=0.5), rng=np.random.default_rng(3))
+    path = tmp_path_factory.mktemp("session") / "walk.mcap"
+    write_session(session, path, fmt="mcap", encoding="16UC1")
+    return path
+
+
+def _options(prefetch: int, **kwargs: Any) -> PipelineOptions:
+    return PipelineOptions(seed=4, prefetch=prefetch, write_mcap=False, write_report=False, **kwargs)
+
+
+def test_prefetch_worker_gives_identical_results(short_session: Path, tmp_path: Path) -> None:
+    inline = process_recording(short_session, tmp_path / "inline", options=_options(0), progress=False)
+    ahead = process_recording(short_session, tmp_path / "ahead", options=_options(3), progress=False)
+    assert ahead.frames == inline.frames == 75
+    for name in ("joints.csv", "steps.csv", "events.csv"):
+        assert (tmp_path / "ahead" / name).read_bytes() == (tmp_path / "inline" / name).read_bytes(), name
+    np.testing.assert_array_equal([p.points for p in ahead.poses], [p.points for p in inline.poses])
+    assert [(s.stamp, s.side, s.step_length, s.step_width) for s in ahead.steps] == \
+        [(s.stamp, s.side, s.step_length, s.step_width) for s in inline.steps]
+
+
+def test_prepared_frame_pickles_with_sparse_depth() -> None:
+    import pickle
+
+    from walker_gait.core.types import CameraIntrinsics, FloorPlane
+
+    depth = np.full((6, 8), np.nan, dtype=np.float32)
+    depth[2, 3], depth[5, 7] = 1.25, 0.5
+    frame = PreparedFrame(stamp=1.0, intrinsics=CameraIntrinsics(width=8, height=6, fx=5.0, fy=5.0, cx=4.0, cy=3.0),
+                          points=np.ones((2, 3)), depth_fg=depth,
+                          floor=FloorPlane(normal=np.array([0.0, -1.0, 0.0]), offset=0.5), timings_ms={"depth": 1.0})
+    back = pickle.loads(pickle.dumps(frame))
+    np.testing.assert_array_equal(back.depth_fg, depth)
+    assert back.depth_fg.dtype == np.float32 and back.depth_fg.shape == (6, 8)
+    assert back.intrinsics == frame.intrinsics and back.stamp == 1.0
+    np.testing.assert_array_equal(back.floor.normal, frame.floor.normal)
+
+
+def _patch_frames(monkeypatch: pytest.MonkeyPatch, *, at: int, action: str) -> None:
+    """Make ``Recording.iter_frames`` warn or fail at frame ``at`` (inherited by the forked worker)."""
+    original = Recording.iter_frames
+
+    def frames(self: Recording) -> Any:
+        for i, frame in enumerate(original(self)):
+            if i == at:
+                if action == "fail":
+                    raise RecordingError(f"{self.path}: damaged chunk at frame {at}")
+                warnings.warn(f"{self.path}: odd frame {at}", RecordingWarning, stacklevel=2)
+            yield frame
+
+    monkeypatch.setattr(Recording, "iter_frames", frames)
+
+
+@pytest.mark.parametrize("prefetch", [0, 3])
+def test_reading_warning_reaches_the_caller(short_session: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+                                            prefetch: int) -> None:
+    _patch_frames(monkeypatch, at=4, action="warn")
+    with pytest.warns(RecordingWarning, match="odd frame 4"):
+        res = process_recording(short_session, tmp_path / "out", options=_options(prefetch), progress=False)
+    assert res.frames == 75
+
+
+@pytest.mark.parametrize("prefetch", [0, 3])
+def test_reading_error_is_raised_in_the_caller(short_session: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+                                               prefetch: int) -> None:
+    _patch_frames(monkeypatch, at=5, action="fail")
+    with pytest.raises(RecordingError, match="damaged chunk at frame 5"):
+        process_recording(short_session, tmp_path / "out", options=_options(prefetch), progress=False)
+    assert not (tmp_path / "out" / "steps.csv").exists()
+
+
+def failing_report(path: Path, **kwargs: Any) -> None:
+    """Stands in for ``write_report`` (module level: the background process looks it up by name)."""
+    raise OSError(f"{path}: disk full")
+
+
+def test_report_process_failure_is_raised_and_other_outputs_written(short_session: Path, tmp_path: Path,
+                                                                     monkeypatch: pytest.MonkeyPatch) -> None:
+    import walker_gait.report
+
+    monkeypatch.setattr(walker_gait.report, "write_report", failing_report)
+    out = tmp_path / "out"
+    with pytest.raises(OSError, match="disk full"):
+        process_recording(short_session, out, options=PipelineOptions(seed=4, write_mcap=False), progress=False)
+    assert (out / "steps.csv").is_file() and not (out / "report.html").exists()
