@@ -63,3 +63,15 @@ def test_readme_parameter_table_is_up_to_date(repo_root: Path) -> None:
     res = subprocess.run([sys.executable, str(repo_root / "tools" / "update_readme.py"), "--check"],
                          capture_output=True, text=True)
     assert res.returncode == 0, res.stderr
+
+
+def test_camera_params_reach_every_stage_and_must_match(repo_root: Path) -> None:
+    from walker_gait.pipeline import PipelineOptions
+
+    params = load_params_file(repo_root / "config" / "walker_gait.yaml")
+    options = PipelineOptions.from_params(params, {"depth_to_cloud.depth_format": "kinect_raw",
+                                                   "depth_to_cloud.use_rectified": False})
+    assert options.depth_format == "kinect_raw" and options.use_rectified is False
+    params["floor_segmentation"]["depth_format"] = "kinect_raw"  # disagrees with depth_to_cloud's `auto`
+    with pytest.raises(ParameterError, match="floor_segmentation.depth_format must match"):
+        PipelineOptions.from_params(params, {})

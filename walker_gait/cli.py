@@ -64,6 +64,7 @@ def node_command(name: str, *, params_file: Path | None, remaps: list[str], para
 def cmd_run(args: argparse.Namespace) -> int:
     """Start the live graph: one OS process per node; Ctrl-C / SIGTERM stops them all."""
     from walker_gait.config import default_params_file
+    from walker_gait.paramspec import CAMERA_PARAMS
 
     params_file = Path(args.params_file) if args.params_file else default_params_file()
     if not params_file.is_file():
@@ -80,6 +81,9 @@ def cmd_run(args: argparse.Namespace) -> int:
         if not sep or node not in NODE_NAMES or not name:
             raise UserError(f"--param expects NODE.PARAM=VALUE with NODE one of {', '.join(NODE_NAMES)}, got {item!r}")
         node_params.setdefault(node, []).append(f"{name}:={value}")
+        if node == "depth_to_cloud" and name in CAMERA_PARAMS:  # the other stages decode the same camera
+            for other in CAMERA_PARAMS[name]:
+                node_params.setdefault(other, []).append(f"{name}:={value}")
     nodes = args.nodes.split(",") if args.nodes else list(NODE_NAMES)
     for n in nodes:
         if n not in NODE_NAMES:

@@ -13,6 +13,14 @@ from typing import Any
 
 from walker_gait.config import ParameterError, build, describe
 
+#: Camera parameters several nodes declare; ``walker-gait run --param depth_to_cloud.NAME=VALUE`` and the
+#: offline pipeline apply a depth_to_cloud value to the other nodes too, so the stages never disagree.
+CAMERA_PARAMS: dict[str, tuple[str, ...]] = {
+    "depth_format": ("floor_segmentation",),
+    "use_rectified": ("floor_segmentation", "leg_tracker"),
+    "input_reliability": ("floor_segmentation",),
+}
+
 NODE_PARAMS: dict[str, list[tuple[str, Any, str]]] = {
     "depth_to_cloud": [
         ("depth_format", "auto", "`auto`: 16UC1/mono16 millimetres, 32FC1 metres; `kinect_raw`: 16-bit raw Kinect "
@@ -24,8 +32,13 @@ NODE_PARAMS: dict[str, list[tuple[str, Any, str]]] = {
                                              "such as `walker-gait replay`)"),
     ],
     "floor_segmentation": [
+        ("input", "depth", "`depth`: decode `depth/image_raw` + `depth/camera_info` itself (same core as "
+                           "depth_to_cloud; cheaper than receiving the 3.7 MB organised cloud); `points`: "
+                           "subscribe to depth_to_cloud's `points`"),
         ("seed", 0, "seed of the RANSAC random generator (numpy Generator)"),
         ("use_rectified", True, "as depth_to_cloud.use_rectified (must match it)"),
+        ("depth_format", "auto", "with `input: depth`: as depth_to_cloud.depth_format (must match it)"),
+        ("input_reliability", "best_effort", "with `input: depth`: as depth_to_cloud.input_reliability"),
     ],
     "leg_tracker": [
         ("preset", "default", "`default` (real time: partitioned + annealed sampling, low-res 2D cue) or `paper` "

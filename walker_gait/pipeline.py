@@ -68,6 +68,7 @@ class PipelineOptions:
         from walker_gait.core.gait import GaitConfig
         from walker_gait.core.segmentation import SegmenterConfig
         from walker_gait.core.tracker import PRESETS, preset as tracker_preset
+        from walker_gait.paramspec import CAMERA_PARAMS
 
         per_node: dict[str, dict[str, Any]] = {n: dict(file_params.get(n, {})) for n in OFFLINE_NODES}
         for n, values in file_params.items():
@@ -79,6 +80,9 @@ class PipelineOptions:
             if node not in per_node or not param:
                 raise ParameterError(f"--param {key}: expected <node>.<param> with node one of {', '.join(OFFLINE_NODES)}")
             per_node[node][param] = value
+            if node == "depth_to_cloud" and param in CAMERA_PARAMS:  # as `walker-gait run` does
+                for other in CAMERA_PARAMS[param]:
+                    per_node[other][param] = value
         d2c = per_node["depth_to_cloud"]
         seg = per_node["floor_segmentation"]
         trk = per_node["leg_tracker"]
@@ -91,7 +95,12 @@ class PipelineOptions:
         trk_rect = trk.pop("use_rectified", None)
         trk.pop("seed", None)
         seg.pop("seed", None)
-        seg.pop("use_rectified", None)
+        seg.pop("input", None)  # live transport only: offline, segmentation always gets the decoded depth
+        seg.pop("input_reliability", None)
+        for name, value in (("depth_format", d2c.get("depth_format", "auto")),
+                            ("use_rectified", d2c.get("use_rectified", True))):
+            if name in seg and seg.pop(name) != value:
+                raise ParameterError(f"floor_segmentation.{name} must match depth_to_cloud.{name} ({value!r})")
         d2c.pop("input_reliability", None)  # live transport only
         trk.pop("input_depth", None)  # live transport only
         window = float(gait.pop("summary_window", 10.0))

@@ -53,7 +53,30 @@ def make_depth_node() -> Any:
     node = DepthToCloudNode()
     published: list[Any] = []
     node.pub_points = published.append
+    node.points_wanted = lambda: True  # as if RViz subscribed to `points`
     return node, published
+
+
+def test_depth_to_cloud_is_lazy(rclpy_context: None) -> None:
+    """No cloud is built while nothing subscribes to `points`; one is as soon as something does."""
+    from walker_gait.ros.base import STREAM_IN, rclpy_type
+    from walker_gait.ros.nodes import DepthToCloudNode
+
+    node = DepthToCloudNode()
+    published: list[Any] = []
+    real_publish = node.pub_points
+    node.pub_points = lambda msg: (published.append(msg), real_publish(msg))
+    try:
+        node.dispatch("depth/camera_info", M.CAMERA_INFO, node.on_info, info_bytes())
+        node.dispatch("depth/image_raw", M.IMAGE, node.on_image, image_bytes(good_depth()))
+        assert published == [] and node.frames_ok == 0
+        sub = node.create_subscription(rclpy_type(M.POINT_CLOUD2), "points", lambda m: None, STREAM_IN, raw=True)
+        assert node.points_wanted()
+        node.dispatch("depth/image_raw", M.IMAGE, node.on_image, image_bytes(good_depth(), stamp=2.0))
+        assert len(published) == 1 and node.frames_ok == 1
+        node.destroy_subscription(sub)
+    finally:
+        node.destroy_node()
 
 
 def test_depth_before_camera_info_is_held_then_processed(rclpy_context: None) -> None:
@@ -153,7 +176,7 @@ def test_floor_segmentation_node_handles_all_invalid_and_good_clouds(rclpy_conte
     from walker_gait.core.depth import DepthProjector, decode_depth
     from walker_gait.ros.nodes import FloorSegmentationNode
 
-    node = FloorSegmentationNode()
+    node = FloorSegmentationNode(parameter_overrides=[rclpy.parameter.Parameter("input", value="points")])
     out: dict[str, list[Any]] = {"fg": [], "mask": [], "floor": []}
     node.pub_fg, node.pub_mask, node.pub_floor = out["fg"].append, out["mask"].append, out["floor"].append
     try:
@@ -179,6 +202,53 @@ def test_floor_segmentation_node_handles_all_invalid_and_good_clouds(rclpy_conte
         assert mask[45:, :].mean() < 0.02  # the floor is not
     finally:
         node.destroy_node()
+
+
+def test_floor_segmentation_reads_depth_like_the_chain_through_points(rclpy_context: None) -> None:
+    """`input: depth` (default) gives the same outputs as depth_to_cloud → `input: points`, and holds early images."""
+    from walker_gait.ros.nodes import FloorSegmentationNode
+
+    def collect(node: Any) -> dict[str, list[Any]]:
+        out: dict[str, list[Any]] = {"fg": [], "mask": [], "floor": []}
+        node.pub_fg, node.pub_mask, node.pub_floor = out["fg"].append, out["mask"].append, out["floor"].append
+        return out
+
+    direct = FloorSegmentationNode()
+    chained = FloorSegmentationNode(parameter_overrides=[rclpy.parameter.Parameter("input", value="points")])
+    cloud_node, clouds = make_depth_node()
+    a, b = collect(direct), collect(chained)
+    try:
+        depth = good_depth()
+        direct.dispatch("depth/image_raw", M.IMAGE, direct.on_image, image_bytes(depth, stamp=1.0))
+        assert a["floor"] == []  # held until the calibration arrives
+        for n in (direct, chained, cloud_node):
+            n.dispatch("depth/camera_info", M.CAMERA_INFO, n.on_info, info_bytes())
+        assert len(a["floor"]) == 1
+        cloud_node.dispatch("depth/image_raw", M.IMAGE, cloud_node.on_image, image_bytes(depth, stamp=1.0))
+        for i in range(1, 4):
+            direct.dispatch("depth/image_raw", M.IMAGE, direct.on_image, image_bytes(depth, stamp=1.0 + i))
+            cloud_node.dispatch("depth/image_raw", M.IMAGE, cloud_node.on_image, image_bytes(depth, stamp=1.0 + i))
+        for cloud in clouds:
+            chained.dispatch("points", M.POINT_CLOUD2, chained.on_cloud, M.serialize(cloud))
+        assert len(a["floor"]) == len(b["floor"]) == 4 and not direct.problems
+        for x, y in zip(a["mask"], b["mask"], strict=True):
+            np.testing.assert_array_equal(M.image_to_mask(x), M.image_to_mask(y))
+            assert M.stamp_to_ns(x.header.stamp) == M.stamp_to_ns(y.header.stamp)
+        for x, y in zip(a["fg"], b["fg"], strict=True):
+            np.testing.assert_array_equal(M.read_pointcloud2(x), M.read_pointcloud2(y))
+        assert M.floor_from_msg(a["floor"][-1]).offset == pytest.approx(M.floor_from_msg(b["floor"][-1]).offset)
+        assert M.image_to_mask(a["mask"][-1])[12:25, 27:33].mean() > 0.9
+    finally:
+        for n in (direct, chained, cloud_node):
+            n.destroy_node()
+
+
+def test_floor_segmentation_rejects_unknown_input(rclpy_context: None) -> None:
+    from walker_gait.config import ParameterError
+    from walker_gait.ros.nodes import FloorSegmentationNode
+
+    with pytest.raises(ParameterError, match="input must be 'depth' or 'points'"):
+        FloorSegmentationNode(parameter_overrides=[rclpy.parameter.Parameter("input", value="cloud")])
 
 
 def test_leg_tracker_holds_frames_until_camera_info(rclpy_context: None) -> None:

@@ -110,11 +110,12 @@ def run_live(path: Path, *, rate: float = 1.0, timeout_s: float = 120.0, settle_
     t0 = time.monotonic()
     try:
         # wait until every link of the graph is subscribed, so no frame is lost at the start
-        links = ("/depth/image_raw", "/depth/camera_info", "/points", "/foreground/points", "/foreground/mask",
-                 "/floor_plane", "/leg_track")
+        # (floor_segmentation reads the depth image itself; depth_to_cloud converts nothing unsubscribed)
+        links = {"/depth/image_raw": 3, "/depth/camera_info": 3, "/foreground/points": 1, "/foreground/mask": 1,
+                 "/floor_plane": 2, "/leg_track": 1}
         while time.monotonic() - t0 < 60:
             rclpy.spin_once(node, timeout_sec=0.1)
-            if all(node.count_subscribers(t) >= (2 if t in ("/depth/image_raw",) else 1) for t in links):
+            if all(node.count_subscribers(t) >= n for t, n in links.items()):
                 break
         replay = subprocess.Popen([sys.executable, "-m", "walker_gait.cli", "replay", str(path), "--rate", str(rate),
                                    "--start-delay", "0.5", "--wait-subscribers", "2"], env=env, stdout=subprocess.DEVNULL,

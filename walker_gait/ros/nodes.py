@@ -22,7 +22,7 @@ from typing import Any
 import numpy as np
 
 from walker_gait import messages as M
-from walker_gait.config import stage_rng
+from walker_gait.config import ParameterError, stage_rng
 from walker_gait.ros.base import (
     EVENTS,
     LATCHED,
@@ -47,57 +47,61 @@ class MissingCameraInfo(RuntimeError):
 # ------------------------------------------------------------------------------- depth_to_cloud
 
 
-class DepthToCloudNode(WalkerNode):
-    """``depth/image_raw`` + ``depth/camera_info`` → ``points`` (organised, NaN = no depth)."""
+class DepthInput:
+    """Depth image + CameraInfo subscriptions of a node, decoded and back-projected by the core.
 
-    def __init__(self, **kwargs: Any) -> None:
-        super().__init__("depth_to_cloud", **kwargs)
+    Declares ``depth_format``, ``use_rectified`` and ``input_reliability`` on ``node`` and calls
+    ``on_frame(depth, points, header)`` per image (``depth`` (H, W) float32 metres, NaN = no depth;
+    ``points`` (H, W, 3) camera optical frame).  Images that arrive before the first CameraInfo (the
+    two topics race at start-up) are held (:data:`WAITING_IMAGES`) and converted as soon as it comes.
+    ``wanted()`` returning False skips an image before it is decoded (lazy publishers).
+    """
+
+    def __init__(self, node: WalkerNode, on_frame: Any, *, wanted: Any = None) -> None:
         from walker_gait.core.depth import DepthProjector
 
-        self.depth_format = str(self.declare_parameter("depth_format", "auto").value)
-        self.use_rectified = bool(self.declare_parameter("use_rectified", True).value)
-        qos_in = input_qos(str(self.declare_parameter("input_reliability", "best_effort").value))
+        self.node = node
+        self.on_frame = on_frame
+        self.wanted = wanted
+        self.depth_format = str(node.declare_parameter("depth_format", "auto").value)
+        self.use_rectified = bool(node.declare_parameter("use_rectified", True).value)
+        qos_in = input_qos(str(node.declare_parameter("input_reliability", "best_effort").value))
         self.projector = DepthProjector()
         self.undistorter: Any = None
         self.info_key: tuple[Any, ...] | None = None
-        self.pub_points = self.raw_publisher(M.POINT_CLOUD2, "points", STREAM)
-        self.raw_subscription(M.CAMERA_INFO, "depth/camera_info", self.on_info, qos_in)
-        self.raw_subscription(M.IMAGE, "depth/image_raw", self.on_image, qos_in)
         self.info: Any = None
         self._warned_no_info = 0.0
-        # images that arrive before the first CameraInfo (the two topics race at start-up) wait here
-        # and are converted as soon as it comes, instead of being lost
         self._waiting: deque[Any] = deque(maxlen=WAITING_IMAGES)
+        node.raw_subscription(M.CAMERA_INFO, "depth/camera_info", self.on_info, qos_in)
+        node.raw_subscription(M.IMAGE, "depth/image_raw", self.on_image, qos_in)
 
     def on_info(self, msg: Any) -> None:
-        self._set_info(msg)
-        while self._waiting:
-            with self.guard("depth/image_raw"):  # a bad held image is skipped like any other
-                self.on_image(self._waiting.popleft())
-
-    def _set_info(self, msg: Any) -> None:
         from walker_gait.core.depth import intrinsics_from_camera_info
 
         fields = M.intrinsics_fields(msg)
         key = (fields["width"], fields["height"], tuple(fields["k"]), tuple(fields["d"]), tuple(fields["p"]),
                fields["distortion_model"])
-        if key == self.info_key:
-            return
-        intr, undist = intrinsics_from_camera_info(**fields, rectified=self.use_rectified)
-        self.projector.set_intrinsics(intr)
-        self.undistorter = undist
-        self.info_key = key
-        self.info = intr
+        if key != self.info_key:
+            intr, undist = intrinsics_from_camera_info(**fields, rectified=self.use_rectified)
+            self.projector.set_intrinsics(intr)
+            self.undistorter = undist
+            self.info_key = key
+            self.info = intr
+        while self._waiting:
+            with self.node.guard("depth/image_raw"):  # a bad held image is skipped like any other
+                self.on_image(self._waiting.popleft())
 
     def on_image(self, msg: Any) -> None:
         from walker_gait.core.depth import check_info_matches, decode_depth
 
+        if self.wanted is not None and not self.wanted():
+            return
         if self.info is None:
             now = time.monotonic()
             if now - self._warned_no_info > 5.0:
                 self._warned_no_info = now
-                self.get_logger().warning(f"depth image received but no CameraInfo yet on depth/camera_info; "
-                                          f"holding the latest {WAITING_IMAGES} images until one arrives")
+                self.node.get_logger().warning(f"depth image received but no CameraInfo yet on depth/camera_info; "
+                                               f"holding the latest {WAITING_IMAGES} images until one arrives")
             self._waiting.append(msg)
             return
         check_info_matches(self.info, width=msg.width, height=msg.height)
@@ -105,8 +109,29 @@ class DepthToCloudNode(WalkerNode):
                              is_bigendian=bool(msg.is_bigendian), depth_format=self.depth_format)
         if self.undistorter is not None:
             depth = self.undistorter.apply(depth)
-        points = self.projector.points(depth)
-        self.pub_points(M.make_pointcloud2(points, msg.header))
+        self.on_frame(depth, self.projector.points(depth), msg.header)
+
+
+class DepthToCloudNode(WalkerNode):
+    """``depth/image_raw`` + ``depth/camera_info`` → ``points`` (organised, NaN = no depth).
+
+    Lazy: an image is only converted while ``points`` has a subscriber (a 640×480 cloud is 3.7 MB to
+    build and serialise; floor_segmentation reads the depth image itself by default).
+    """
+
+    def __init__(self, **kwargs: Any) -> None:
+        super().__init__("depth_to_cloud", **kwargs)
+        self.pub_points = self.raw_publisher(M.POINT_CLOUD2, "points", STREAM)
+        self._points_publisher = self.pub_points.publisher  # type: ignore[attr-defined]
+        self.input = DepthInput(self, self.on_frame, wanted=lambda: self.points_wanted())
+        self.on_info, self.on_image = self.input.on_info, self.input.on_image
+
+    def points_wanted(self) -> bool:
+        """True while something subscribes to ``points``."""
+        return bool(self._points_publisher.get_subscription_count() > 0)
+
+    def on_frame(self, depth: np.ndarray, points: np.ndarray, header: Any) -> None:
+        self.pub_points(M.make_pointcloud2(points, header))
         self.frames_ok += 1
 
 
@@ -114,7 +139,12 @@ class DepthToCloudNode(WalkerNode):
 
 
 class FloorSegmentationNode(WalkerNode):
-    """``points`` (organised) → ``foreground/points``, ``foreground/mask``, ``floor_plane``."""
+    """Depth image (or ``points``) → ``foreground/points``, ``foreground/mask``, ``floor_plane``.
+
+    ``input: depth`` (default) decodes ``depth/image_raw`` itself with the same core as depth_to_cloud
+    (cheaper than receiving the 3.7 MB organised cloud); ``input: points`` subscribes to depth_to_cloud's
+    ``points`` instead.
+    """
 
     def __init__(self, **kwargs: Any) -> None:
         super().__init__("floor_segmentation", **kwargs)
@@ -126,15 +156,29 @@ class FloorSegmentationNode(WalkerNode):
         self.pub_fg = self.raw_publisher(M.POINT_CLOUD2, "foreground/points", STREAM)
         self.pub_mask = self.raw_publisher(M.IMAGE, "foreground/mask", STREAM)
         self.pub_floor = self.raw_publisher(M.FLOOR_PLANE, "floor_plane", STREAM)
-        self.use_rectified = bool(self.declare_parameter("use_rectified", True).value)
-        self.raw_subscription(M.CAMERA_INFO, "depth/camera_info", self.on_info, SENSOR_IN)
-        self.raw_subscription(M.POINT_CLOUD2, "points", self.on_cloud, STREAM_IN)
+        source = str(self.declare_parameter("input", "depth").value)
         self.intrinsics: Any = None
+        if source == "depth":
+            self.depth_input: DepthInput | None = DepthInput(self, self.on_depth)
+            self.use_rectified = self.depth_input.use_rectified
+            self.on_image = self.depth_input.on_image
+            self.on_info = self.depth_input.on_info  # type: ignore[method-assign]
+        elif source == "points":
+            self.depth_input = None
+            self.use_rectified = bool(self.declare_parameter("use_rectified", True).value)
+            self.raw_subscription(M.CAMERA_INFO, "depth/camera_info", self.on_info, SENSOR_IN)
+            self.raw_subscription(M.POINT_CLOUD2, "points", self.on_cloud, STREAM_IN)
+        else:
+            self.get_logger().fatal(f"input must be 'depth' or 'points', got {source!r}")
+            raise ParameterError(f"floor_segmentation.input must be 'depth' or 'points', got {source!r}")
 
     def on_info(self, msg: Any) -> None:
         from walker_gait.core.depth import intrinsics_from_camera_info
 
         intr, _ = intrinsics_from_camera_info(**M.intrinsics_fields(msg), rectified=self.use_rectified)
+        self._set_intrinsics(intr)
+
+    def _set_intrinsics(self, intr: Any) -> None:
         if intr != self.intrinsics:
             self.intrinsics = intr
             self.segmenter.set_intrinsics(intr)
@@ -143,10 +187,18 @@ class FloorSegmentationNode(WalkerNode):
         points = M.read_pointcloud2(msg)
         if points.ndim != 3:
             raise ValueError("floor_segmentation needs an organised cloud (height > 1) aligned with the depth image")
-        seg = self.segmenter.process(points[..., 2], points)
-        self.pub_floor(M.make_floor_plane(seg.floor, msg.header))
-        self.pub_mask(M.make_image(seg.mask.astype(np.uint8) * 255, msg.header, encoding="mono8"))
-        self.pub_fg(M.make_pointcloud2(seg.points, msg.header))
+        self.segment(points[..., 2], points, msg.header)
+
+    def on_depth(self, depth: np.ndarray, points: np.ndarray, header: Any) -> None:
+        assert self.depth_input is not None
+        self._set_intrinsics(self.depth_input.info)
+        self.segment(depth, points, header)
+
+    def segment(self, depth: np.ndarray, points: np.ndarray, header: Any) -> None:
+        seg = self.segmenter.process(depth, points)
+        self.pub_floor(M.make_floor_plane(seg.floor, header))
+        self.pub_mask(M.make_image(seg.mask.astype(np.uint8) * 255, header, encoding="mono8"))
+        self.pub_fg(M.make_pointcloud2(seg.points, header))
         self.frames_ok += 1
 
 
