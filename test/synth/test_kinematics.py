@@ -180,3 +180,30 @@ def test_every_scenario_generates(scenario: str) -> None:
     assert s.leg_points.shape == (len(s), 2, 5, 3)
     assert np.all(np.isfinite(s.leg_points))
     assert s.body.ik_clamped.mean() < 0.05
+
+
+def _axis_distances(world: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Per-frame distance between the left and right calf axes and between the heel-toe axes (m)."""
+    from walker_gait.core.leg_model import segment_distances
+
+    calf = segment_distances(world[:, 0, 1], world[:, 0, 2], world[:, 1, 1], world[:, 1, 2])
+    foot = segment_distances(world[:, 0, 3], world[:, 0, 4], world[:, 1, 3], world[:, 1, 4])
+    return calf, foot
+
+
+@pytest.mark.parametrize("scenario", ["occlusion", "normal", "stop_and_go"])
+def test_legs_never_pass_through_each_other(scenario: str) -> None:
+    """Narrow-base gait (occlusion: step width 0-4 cm) stands with the feet apart and swings around the
+    stance leg: calves and feet keep ~ a limb's thickness between their axes in every frame."""
+    for seed in (1, 2):
+        s = _session(scenario, seed=seed, duration=10.0)
+        calf, foot = _axis_distances(s.body.leg_points())
+        assert calf.min() > 0.085, (seed, calf.min())
+        assert foot.min() > 0.085, (seed, foot.min())
+
+
+def test_narrow_steps_keep_their_width_at_heel_strike() -> None:
+    """The swing clearance changes the path, not the footfall: GT step widths stay narrow."""
+    s = _session("occlusion", seed=4, duration=12.0)
+    widths = [x.step_width for x in s.steps if np.isfinite(x.stride_time)][1:-1]
+    assert len(widths) >= 8 and np.mean(widths) < 0.05

@@ -138,6 +138,8 @@ class GaitParams:
     foot_flat_frac: float = 0.14  # foot flat after HS, fraction of nominal stance time
     heel_off_frac: float = 0.45  # heel off, fraction of nominal stance time
     toe_clearance: float = 0.015  # m, minimum sole clearance in mid swing
+    min_stance_width: float = 0.10  # m, heel-to-heel lateral distance standing (at least; feet cannot overlap)
+    swing_clearance: float = 0.10  # m, lateral ankle-to-ankle distance as the swing foot passes the stance foot
     first_step_factor: float = 0.75  # first step of a bout relative to step_length
     pelvis_sway: float = 0.35  # lateral pelvis excursion as a fraction of the stance foot offset
     pelvis_rotation: float = np.deg2rad(4.0)  # transverse rotation amplitude (rad)
@@ -208,20 +210,21 @@ def plan_footfalls(
     """Draw the footfall sequence (times, planted heel positions) for ``programme``.
 
     The user starts standing with the pelvis at ``(start_x, start_y)`` facing +X, feet
-    ``step_width`` apart.
+    ``max(step_width, min_stance_width)`` apart (also after a closing step).
     An infinite ``walk`` phase stops planning at ``t_end + 2`` s; after the last phase the user
     stands still.
     Returns ``(left, right)`` plans.
     """
     feet = (FootPlan(), FootPlan())
     ank = dims.ankle_forward
+    stance_width = max(params.step_width, params.min_stance_width)
     for side in (Side.LEFT, Side.RIGHT):
         sgn = _side_sign(side)
         yaw = sgn * params.toe_out
         feet[side].hs.append(-_BIG)
         feet[side].to.append(_BIG)
         feet[side].heel.append(
-            (start_x - ank * np.cos(yaw), start_y + sgn * params.step_width / 2 - ank * np.sin(yaw))
+            (start_x - ank * np.cos(yaw), start_y + sgn * stance_width / 2 - ank * np.sin(yaw))
         )
         feet[side].yaw.append(yaw)
         feet[side].bout.append(-1)
@@ -319,7 +322,7 @@ def _plan_bout(
             asym_o = _side_sign(other)
             yaw_c = heading + asym_o * params.toe_out + np.deg2rad(1.0) * rng.standard_normal()
             along_c = _path_coord(feet[s], heading, origin) + 0.01 * rng.standard_normal()
-            lat_c = asym_o * params.step_width / 2
+            lat_c = asym_o * max(params.step_width, params.min_stance_width) / 2
             feet[other].hs.append(hs_c)
             feet[other].to.append(_BIG)
             feet[other].heel.append(
@@ -600,6 +603,8 @@ class GaitKinematics:
             sw = np.nonzero(~st)[0]
             if len(sw):
                 hs_, to_, an_, ax_ = self._swing_foot(side, k[sw], t[sw], hip[sw, side])
+                push = self._swing_clearance(side, t[sw], an_)
+                hs_, to_, an_ = hs_ + push, to_ + push, an_ + push
                 heel[sw, side], toe[sw, side], ankle[sw, side], axes[sw, side] = hs_, to_, an_, ax_
             kn, cl = self._knee_ik(hip[:, side], ankle[:, side], axes[:, side, :, 0])
             knee[:, side] = kn
@@ -626,6 +631,29 @@ class GaitKinematics:
             angles=angles,
             ik_clamped=clamped,
         )
+
+    def _swing_clearance(self, side: int, t: FloatArray, ankle: FloatArray) -> FloatArray:
+        """Lateral displacement ``(n, 3)`` that keeps the swing foot clear of the stance foot.
+
+        A narrow-base walker (step width near zero) swings the foot around the stance leg instead
+        of through it: while the two ankles are less than a foot length apart along the stance
+        foot, the swing ankle keeps at least ``swing_clearance`` laterally (faded in and out
+        between one and 1.5 foot lengths; nothing changes for wider gaits).
+        """
+        other = 1 - side
+        ko = np.clip(self._footfall_index(other, t), 0, None)
+        _, _, a_o, ax_o = self._stance_foot(other, ko, t)
+        fwd = ax_o[:, :, 0].copy()
+        fwd[:, 2] = 0.0
+        fwd /= np.maximum(np.linalg.norm(fwd, axis=-1, keepdims=True), 1e-9)
+        lat = np.stack([-fwd[:, 1], fwd[:, 0], np.zeros(len(t))], axis=-1)  # towards the user's left
+        delta = ankle - a_o
+        along = np.einsum("ij,ij->i", delta, fwd) / self.dims.foot_length
+        sgn = _side_sign(side)
+        u = np.clip((1.5 - np.abs(along)) / 0.5, 0.0, 1.0)  # 0 beyond 1.5 foot lengths, 1 within one
+        need = self.params.swing_clearance * u * u * (3.0 - 2.0 * u)
+        push = np.maximum(need - sgn * np.einsum("ij,ij->i", delta, lat), 0.0)
+        return (sgn * push)[:, None] * lat
 
     def _natural_swing(self, side: int, phi: FloatArray, hip: FloatArray, yaw: FloatArray) -> tuple[FloatArray, FloatArray]:
         """Ankle position and sole pitch from the normative angles at phase ``phi`` hanging from ``hip``."""
