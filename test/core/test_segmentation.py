@@ -39,6 +39,7 @@ from walker_gait.core.segmentation import (
     Segmenter,
     SegmenterConfig,
     fit_floor_ransac,
+    thin_parts,
 )
 from walker_gait.core.types import CameraIntrinsics, FloorPlane
 
@@ -204,18 +205,51 @@ def test_segmentation_output_contract() -> None:
     scene = make_synthetic_scene()
     depth = noisy_depth(scene, rng)
     pts = PROJ.points(depth)
-    a = Segmenter(rng=np.random.default_rng(0), intrinsics=KINECT_INTRINSICS).process(depth, pts)
-    b = Segmenter(rng=np.random.default_rng(0)).process(depth, pts)
+    # (the thin-part filter needs intrinsics; off for the comparison of the two coordinate paths)
+    cfg = SegmenterConfig(min_part_width=0.0)
+    a = Segmenter(cfg, rng=np.random.default_rng(0), intrinsics=KINECT_INTRINSICS).process(depth, pts)
+    b = Segmenter(cfg, rng=np.random.default_rng(0)).process(depth, pts)
     assert a.status == "ok" and a.floor.valid and a.floor_refit
     assert a.mask.shape == depth.shape and a.mask.dtype == bool
     assert a.points.dtype == np.float32 and a.points.shape == (a.n_foreground, 3) and a.points.flags.c_contiguous
     np.testing.assert_array_equal(a.points, pts[a.mask])
     assert np.all(np.isfinite(a.points))
-    assert a.n_valid == a.n_floor + a.n_outside_roi + a.n_static + a.n_foreground
+    assert a.n_valid == a.n_floor + a.n_outside_roi + a.n_static + a.n_thin + a.n_foreground
+    c = Segmenter(rng=np.random.default_rng(0), intrinsics=KINECT_INTRINSICS).process(depth, pts)
+    assert c.n_thin > 0 and c.n_valid == c.n_floor + c.n_outside_roi + c.n_static + c.n_thin + c.n_foreground
     # the two coordinate paths (rays from intrinsics / transforming points) agree
     assert np.count_nonzero(a.mask != b.mask) <= 5
     fg = a.foreground_depth(depth)
     assert np.all(np.isnan(fg[~a.mask])) and np.array_equal(fg[a.mask], depth[a.mask])
+
+
+def test_thin_parts_drops_tubes_keeps_legs() -> None:
+    """Widths are metric (run length x depth / f): the same 20 px are a 2.3 cm tube at 0.6 m (dropped)
+    but 9 cm at 2.4 m (kept); holes inside a leg do not split it; a thin sliver touching a leg is kept."""
+    m = np.zeros((240, 320), bool)
+    z = np.full((240, 320), 0.6, np.float32)
+    m[40:200, 20:60] = True  # leg: 40 px at 0.6 m, f = 262 -> 9 cm
+    m[100:104, 30:33] = False  # a dropout hole in it
+    m[20:220, 100:110] = True  # post: 10 px -> 2.3 cm
+    m[150:155, 150:300] = True  # bar: 5 px high
+    m[40:200, 60:66] = True  # a back leg's sliver beside the front leg (same run)
+    z[:, 200:230] = 2.4
+    m[40:200, 205:215] = True  # 10 px at 2.4 m -> 9 cm
+    thin = thin_parts(m, z, fx=262.5, fy=262.5, min_width=0.045)
+    assert not thin[40:200, 20:66].any()
+    assert thin[20:220, 100:110].all() and thin[150:155, 150:200].all()
+    assert not thin[40:200, 205:215].any()
+    assert not (thin & ~m).any()
+    assert not thin_parts(np.zeros_like(m), z, fx=262.5, fy=262.5, min_width=0.045).any()
+
+
+def test_segmenter_drops_walker_bar_in_roi() -> None:
+    """The walker cross-bar inside the ROI (1.5 cm radius) is removed from the first frame on."""
+    rng = np.random.default_rng(5)
+    q = _quality(Segmenter(SegmenterConfig(), rng=rng, intrinsics=KINECT_INTRINSICS), 4, rng)
+    assert q["bar_kept"] < 0.05 and q["leg_kept"] >= 0.98
+    off = _quality(Segmenter(SegmenterConfig(min_part_width=0.0), rng=rng, intrinsics=KINECT_INTRINSICS), 4, rng)
+    assert off["bar_kept"] > 0.5
 
 
 def test_roi_sides_and_limits() -> None:
@@ -338,7 +372,7 @@ def test_hmm_free_space_evidence_empties_cells() -> None:
 
 def test_segmenter_hmm_removes_static_walker_bar_keeps_moving_legs() -> None:
     rng = np.random.default_rng(10)
-    cfg = SegmenterConfig(use_occupancy_hmm=True)
+    cfg = SegmenterConfig(use_occupancy_hmm=True, min_part_width=0.0)  # the HMM alone
     seg = Segmenter(cfg, rng=rng, intrinsics=QVGA)
     early = _quality(seg, 30, rng, intrinsics=QVGA)
     assert early["bar_kept"] > 0.5  # not yet recognised as static (psi: ~76 frames)

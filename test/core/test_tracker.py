@@ -214,3 +214,26 @@ def test_redetects_when_the_second_leg_enters_view() -> None:
     with_redetection = late_error(DEFAULT.min_explained)
     assert with_redetection < 0.08
     assert late_error(0.0) > 2 * with_redetection  # the scenario does need the re-detection
+
+
+def test_detection_ignores_low_clutter_beside_the_legs() -> None:
+    """A walker wheel (low blob beside the right leg) must not pull the detected legs towards it: the
+    legs are told apart on the shins, above what lies on the floor."""
+    from walker_gait.bench.tracker import gait_state, render_frame
+    from walker_gait.core.leg_model import BodyFrame
+
+    floor = FloorPlane.from_camera_pose(height=0.70, pitch=0.50)
+    base = lm.neutral_state(right_hip_xy=(-0.85, -0.09), hip_dist=0.18)
+    state = gait_state(0.0, base=base)
+    fr = render_frame(state, intrinsics=KINECT, floor=floor, mounting="facing_user", rng=np.random.default_rng(1))
+    rng = np.random.default_rng(2)
+    n = len(fr.points) // 2  # a wheel near the camera covers about as many pixels as a leg
+    wheel = np.column_stack([rng.uniform(-0.95, -0.75, n), rng.uniform(-0.33, -0.28, n),
+                             rng.uniform(0.03, 0.2, n)])  # body frame: beside the right foot, on the floor
+    wheel_cam = BodyFrame.from_floor(floor, mounting="facing_user").to_camera(wheel)
+    points = np.vstack([fr.points, wheel_cam]).astype(np.float32)
+    tracker = LegTracker(DEFAULT, KINECT, rng=np.random.default_rng(0))
+    detected = tracker._detect(tracker._prepare(points.astype(np.float64), fr.depth, floor))
+    true_hips = lm.hip_positions(state[None])[0]
+    found_hips = lm.hip_positions(detected[None])[0]
+    assert np.abs(found_hips[:, 1] - true_hips[:, 1]).max() < 0.03  # lateral positions of both legs

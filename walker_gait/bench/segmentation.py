@@ -208,7 +208,8 @@ def run_segmentation_bench(
       that end up in the foreground; ``leg_kept_all_pct``: all valid in-ROI leg pixels (incl. the lowest 4.5 cm);
     * ``floor_leak_pct``: valid floor pixels inside the ROI box that end up in the foreground;
       ``floor_leak_all_pct``: relative to all valid floor pixels;
-    * ``bar_kept_pct``: walker cross-bar pixels kept (they are in the ROI; only the HMM removes them);
+    * ``bar_kept_pct``: walker cross-bar pixels kept (they are in the ROI; removed as thinner than
+      ``min_part_width``, or by the HMM once static);
       ``post_kept_pct``: walker posts (outside the ROI laterally).
     """
     cfg = config or SegmenterConfig()

@@ -638,6 +638,60 @@ class BackgroundModel:
         return closer | no_bg
 
 
+# =========================================================================== thin structures
+
+
+def _run_lengths(mask: BoolArray) -> NDArray[np.int32]:
+    """Length (px) of the horizontal run of True pixels each pixel of ``mask`` belongs to (0 if False)."""
+    h, w = mask.shape
+    padded = np.zeros((h, w + 1), dtype=bool)
+    padded[:, :w] = mask
+    flat = padded.ravel()
+    starts = flat.copy()
+    starts[1:] &= ~flat[:-1]
+    run_id = np.cumsum(starts, dtype=np.int32)
+    run_id *= flat
+    counts = np.bincount(run_id).astype(np.int32)
+    counts[0] = 0
+    return counts[run_id].reshape(h, w + 1)[:, :w]
+
+
+def thin_parts(mask: BoolArray, depth: NDArray[np.floating], *, fx: float, fy: float, min_width: float,
+               close_px: int = 7, stride: int = 2) -> BoolArray:
+    """Pixels of ``mask`` on structures thinner than ``min_width`` metres across or along the rows.
+
+    The width of each pixel's horizontal (vertical) run of foreground, in pixels, times its depth
+    over ``fx`` (``fy``) is the structure's metric width there.  Runs are measured on the mask
+    closed by ``close_px`` so that depth dropouts inside a leg (fabric, noise) do not split it.
+    A back leg's visible sliver is contiguous with the front leg in the mask, so it is kept.
+    Works on the mask's bounding box sub-sampled by ``stride`` (a 2 cm tube at 2 m is still
+    ~2-3 px wide there).
+    """
+    import cv2
+
+    out = np.zeros_like(mask)
+    rows = np.flatnonzero(mask.any(axis=1))
+    if rows.size == 0:
+        return out
+    cols = np.flatnonzero(mask.any(axis=0))
+    r0, r1, c0, c1 = int(rows[0]), int(rows[-1]) + 1, int(cols[0]), int(cols[-1]) + 1
+    m = mask[r0:r1:stride, c0:c1:stride]
+    z = np.where(m, depth[r0:r1:stride, c0:c1:stride], np.float32(0.0)).astype(np.float32, copy=False)
+    closed = m
+    k = max(1, close_px // stride)
+    if k > 1:
+        closed = cv2.morphologyEx(m.astype(np.uint8), cv2.MORPH_CLOSE, np.ones((k, k), np.uint8)).astype(bool) | m
+    across = _run_lengths(closed) * z * np.float32(stride / fx)
+    along = _run_lengths(np.ascontiguousarray(closed.T)).T * z * np.float32(stride / fy)
+    thin = m & ((across < min_width) | (along < min_width))
+    # back to full resolution: each full-res pixel takes its sub-sampled cell's verdict
+    ri = (np.arange(r0, r1) - r0) // stride
+    ci = (np.arange(c0, c1) - c0) // stride
+    out[r0:r1, c0:c1] = thin[ri[:, None], ci[None, :]]
+    out &= mask
+    return out
+
+
 # =========================================================================== occupancy HMM (paper 003)
 
 
@@ -865,6 +919,10 @@ class SegmenterConfig:
     require_floor: bool = True
     """With no floor plane ever found, output an empty foreground (True) or — background method
     only — fall back to a camera-frame box (False)."""
+    min_part_width: float = 0.045
+    """Foreground thinner than this (m), across or along the image rows, is dropped: a walker's own
+    tubes (posts, side bars, wheels seen edge-on: 2-4 cm) that reach into the ROI on other mounts;
+    legs, trousers and shoes are wider (≥ ~7 cm).  0 = keep everything (seed)."""
     use_occupancy_hmm: bool = False
     """Remove structure static in the camera frame with :class:`OccupancyHMM`."""
     hmm: HmmConfig = field(default_factory=HmmConfig)
@@ -879,6 +937,8 @@ class SegmenterConfig:
             raise ValueError("background thresholds must be >= 0")
         if self.background_frames < 1:
             raise ValueError(f"background_frames must be >= 1, got {self.background_frames}")
+        if not (self.min_part_width >= 0):
+            raise ValueError(f"min_part_width must be >= 0, got {self.min_part_width}")
         self.roi.validate()
         self.floor.validate()
         self.hmm.validate()
@@ -909,6 +969,8 @@ class Segmentation:
     """Valid non-floor pixels outside the ROI box."""
     n_static: int = 0
     """Pixels removed by the occupancy HMM."""
+    n_thin: int = 0
+    """Pixels removed as parts thinner than ``min_part_width``."""
     n_foreground: int = 0
     """Foreground pixels (= ``len(points)``)."""
 
@@ -1091,6 +1153,12 @@ class Segmenter:
         cand_nf &= valid_f
         n_not_floor = int(np.count_nonzero(cand_nf))
         mask = cand_nf & in_roi
+        n_thin = 0
+        if cfg.min_part_width > 0 and self.intrinsics is not None:
+            thin = thin_parts(mask.reshape(shape), z, fx=self.intrinsics.fx, fy=self.intrinsics.fy,
+                              min_width=cfg.min_part_width).reshape(-1)
+            n_thin = int(np.count_nonzero(thin))
+            mask &= ~thin
         n_static = 0
         if self.hmm is not None and floor.valid and xw is not None and yw is not None and h is not None:
             idx = np.flatnonzero(mask)
@@ -1110,7 +1178,8 @@ class Segmenter:
             floor_refit=self.floor_tracker.refit_this_frame,
             n_valid=n_valid,
             n_floor=n_valid - n_not_floor,
-            n_outside_roi=n_not_floor - n_fg - n_static,
+            n_outside_roi=n_not_floor - n_fg - n_static - n_thin,
             n_static=n_static,
+            n_thin=n_thin,
             n_foreground=n_fg,
         )

@@ -557,7 +557,11 @@ class LegTracker:
     def _detect(self, frame: _Frame) -> FloatArray:
         """A standing-pose state fitted to the two leg blobs of the foreground (body frame)."""
         pb = frame.fg_all_body
-        sel = pb[(pb[:, 2] > 0.03) & (pb[:, 2] < 0.7)]
+        # shins and knees (0.25-0.7 m above the floor) separate the two legs best and leave out what
+        # lies low on the floor: feet together, a walker's wheels, a bag; feet-only views fall back
+        sel = pb[(pb[:, 2] > 0.25) & (pb[:, 2] < 0.7)]
+        if sel.shape[0] < max(20, pb.shape[0] // 10):
+            sel = pb[(pb[:, 2] > 0.03) & (pb[:, 2] < 0.7)]
         if sel.shape[0] < 10:
             sel = pb
         y = sel[:, 1]
