@@ -205,30 +205,46 @@ class BodyFrame:
         return (np.asarray(pts, dtype=np.float64) - self.body_to_cam_trans) @ self.body_to_cam_rot
 
 
-def _rot(a: FloatArray, i: int, j: int) -> FloatArray:
-    """``(..., 3, 3)`` rotations by ``a`` in the (i, j) plane (filled in place: no np.stack)."""
-    a = np.asarray(a, dtype=np.float64)
-    c, s = np.cos(a), np.sin(a)
-    out = np.zeros(a.shape + (3, 3))
-    k = 3 - i - j
-    out[..., k, k] = 1.0
-    out[..., i, i] = c
-    out[..., j, j] = c
-    out[..., i, j] = -s
-    out[..., j, i] = s
-    return out
+# Internal layout: kinematics are computed component-major with the particle axis last, e.g.
+# ``(3, 2, P)`` = [xyz, side, particle], and where possible with operands of one shape and
+# contiguous, so that numpy takes its fast path for every small-array operation (these functions
+# run many times per frame on ~100 particles, so call overhead rather than arithmetic dominates).
+# The public ``(P, ...)`` arrays of :class:`Kinematics` are transposed copies made once per call.
+#
+# Rotations are kept as their *frame axes*: ``axes[k]`` is column k of the rotation matrix R (the
+# local x/y/z axis in the body frame), so a chain of elementary rotations is applied by turning two
+# axes at a time (:func:`_turn_axes`) instead of building and multiplying 3x3 matrices.  An
+# elementary rotation by ``a`` in the (i, j) plane has E[i, i] = E[j, j] = cos a,
+# E[j, i] = sin a = -E[i, j]: rotations about x, y and z are the planes (1, 2), (2, 0) and (0, 1).
 
+_LEG_ROTATION_PLANES: tuple[tuple[int, int], ...] = ((2, 0), (1, 2), (0, 1), (2, 0), (2, 0), (1, 2))
+"""Plane of each joint rotation of a leg, in chain (``JOINT_NAMES``) order: hip flexion (y),
+abduction (x), rotation (z), knee flexion (y), ankle flexion (y), ankle inversion (x)."""
+_LEG_ANGLE_SIGNS: FloatArray = np.array(
+    [[-1.0, 1.0, -1.0, 1.0, -1.0, -1.0], [-1.0, -1.0, 1.0, 1.0, -1.0, 1.0]]
+).T.reshape(6, 2, 1)
+"""``(joint, side, 1)`` factors turning the state's joint angles into rotation angles:
+``Ry(-flex) Rx(s*abd) Rz(-s*rot) Ry(knee) Ry(-dorsi) Rx(-s*inv)``, ``s = +1`` left, ``-1`` right."""
+_RADIUS_INDEX = np.tile([L.RAD_THIGH, L.RAD_THIGH, L.RAD_CALF, L.RAD_CALF, L.LEN_FOOT, L.LEN_FOOT], 2)
+_RADIUS_SCALE: FloatArray = np.tile([1.0, THIGH_TAPER, 1.0, CALF_TAPER, FOOT_HEEL_RADIUS, FOOT_TOE_RADIUS], 2)
+"""``Kinematics.radii`` of a state ``x`` is ``(x[_RADIUS_INDEX] * _RADIUS_SCALE).reshape(2, 3, 2)``."""
+_FOOT_START, _FOOT_END = 5, 6
+"""Rows of the foot axis ends in :attr:`_Chain.ends` (after the 5 ``LEG_POINTS``)."""
+_SEGMENT_ENDS = np.array([[HIP, KNEE, _FOOT_START], [KNEE, ANKLE, _FOOT_END]])
+"""``(2, 3)`` rows of :attr:`_Chain.ends` holding the [proximal, distal] end of each of the SEGMENTS."""
 
-def _rx(a: FloatArray) -> FloatArray:
-    return _rot(a, 1, 2)
-
-
-def _ry(a: FloatArray) -> FloatArray:
-    return _rot(a, 2, 0)
-
-
-def _rz(a: FloatArray) -> FloatArray:
-    return _rot(a, 0, 1)
+# The 9 (left segment i, right segment j) pairs of the collision test, as fancy indices that gather
+# ``(4, 3, 9, P)`` [p1, q1, p2, q2] x xyz x pair x particle from the kinematics.
+_PAIR_SEG = np.array([np.repeat(np.arange(3), 3)] * 2 + [np.tile(np.arange(3), 3)] * 2)[:, None, :]
+"""``(4, 1, 9)`` segment index of p1, q1 (left segment i) and p2, q2 (right segment j)."""
+_PAIR_END = np.array([0, 1, 0, 1]).reshape(4, 1, 1)
+_PAIR_SIDE = np.array([0, 0, 1, 1]).reshape(4, 1, 1)
+_PAIR_XYZ = np.arange(3).reshape(1, 3, 1)
+_PAIR_ROW = _SEGMENT_ENDS[_PAIR_END, _PAIR_SEG]
+"""``(4, 1, 9)`` rows of :attr:`_Chain.ends` of p1, q1, p2, q2."""
+_PAIR_RADIUS = (_PAIR_END[:, 0], _PAIR_SEG[:, 0], _PAIR_SIDE[:, 0])
+"""Fancy index of ``radii.T`` ``(2, 3, 2, P)`` [end, segment, side, particle] giving the ``(4, 9, P)``
+radii at p1, q1, p2, q2."""
 
 
 @dataclass(frozen=True)
@@ -249,54 +265,150 @@ class Kinematics:
     foot_lateral: FloatArray
 
 
+@dataclass(frozen=True)
+class _Chain:
+    """Forward kinematics in the internal particle-last layout (see :func:`_chain`).
+
+    ``ends`` (7, 3, 2, P): [LEG_POINTS + foot axis start/end, xyz, side, particle];
+    ``lateral`` (3, 2, P): unit lateral foot axes; ``radii`` (P, 2, 3, 2) as in :class:`Kinematics`.
+    """
+
+    ends: FloatArray
+    lateral: FloatArray
+    radii: FloatArray
+
+    def kinematics(self) -> Kinematics:
+        """The public ``(P, ...)`` layout (new C-contiguous arrays)."""
+        seg = np.take(self.ends, _SEGMENT_ENDS.T, axis=0)  # (3, 2, 3, 2, P) [segment, end, xyz, side, P]
+        return Kinematics(
+            segments=np.ascontiguousarray(seg.transpose(4, 3, 0, 1, 2)),
+            radii=self.radii,
+            points=np.ascontiguousarray(self.ends[: TOE + 1].transpose(3, 2, 0, 1)),
+            foot_lateral=np.ascontiguousarray(self.lateral.transpose(2, 1, 0)),
+        )
+
+    def replace(self, rows: BoolArray, other: _Chain) -> None:
+        """In place: the particles ``rows`` ``(P,)`` become those of ``other`` (``rows.sum()`` particles)."""
+        self.ends[..., rows] = other.ends
+        self.lateral[..., rows] = other.lateral
+        self.radii[rows] = other.radii
+
+    def segment_pairs(self) -> FloatArray:
+        """``(4, 3, 9, P)`` [p1, q1, p2, q2] ends of the (left, right) segment pairs of :func:`_collisions`."""
+        return self.ends[_PAIR_ROW, _PAIR_XYZ, _PAIR_SIDE]
+
+    def sole_heights(self) -> FloatArray:
+        """``(2, P)`` lowest sole height of each foot (see :func:`sole_heights`)."""
+        z, r = self.ends[:, 2], self.radii[:, 0, 2]
+        return _sole_heights(z[_FOOT_START], z[_FOOT_END], r[:, 0], r[:, 1], self.lateral[2])
+
+
+def _turn_axes(axes: list[FloatArray], i: int, j: int, c: FloatArray, s: FloatArray) -> None:
+    """``R <- R @ E`` for a rotation ``R`` stored as its frame axes (``axes[k]`` = column k).
+
+    ``E`` is the elementary rotation in the (i, j) plane with cosine ``c`` and sine ``s`` (same
+    shape as the axes); axes i and j are replaced by new arrays, the third one is unchanged.
+    """
+    ai, aj = axes[i], axes[j]
+    new_i = ai * c
+    new_i += aj * s
+    new_j = aj * c
+    new_j -= ai * s
+    axes[i], axes[j] = new_i, new_j
+
+
+def _fill_hips(
+    xt: FloatArray, c_az: FloatArray, s_az: FloatArray, c_el: FloatArray, s_el: FloatArray, out: FloatArray
+) -> None:
+    """Hip joint centres into ``out`` ``(3, 2, P)`` [xyz, LEFT/RIGHT, particle].
+
+    ``xt`` ``(23, P)`` are the states (transposed), ``c_az``..``s_el`` ``(P,)`` the cosines/sines of
+    the pelvis azimuth and elevation; the left hip is at a spherical offset from the right one.
+    """
+    left, right = out[:, 0], out[:, 1]
+    right[...] = xt[L.ROOT]
+    np.multiply(s_az, c_el, out=left[0])
+    np.negative(left[0], out=left[0])
+    np.multiply(c_az, c_el, out=left[1])
+    left[2] = s_el
+    left *= xt[L.HIP_DIST]
+    left += right
+
+
+def _chain(x: FloatArray) -> _Chain:
+    """Forward kinematics of ``(P, 23)`` float64 states in the internal layout.
+
+    Both legs are computed together: all cosines/sines in one call each, then the leg chain of the
+    module docstring applied to frame axes ``(3, 2, P)`` [xyz, side, particle].
+    """
+    p = x.shape[0]
+    xt = x.T
+    # rotation angles [pelvis azimuth, elevation, 12 signed joint angles (joint-major)] x particle
+    ang = np.empty((14, p))
+    ang[:2] = xt[L.HIP_AZ : L.HIP_EL + 1]
+    np.multiply(xt[L.ANGLES].reshape(2, 6, p).transpose(1, 0, 2), _LEG_ANGLE_SIGNS, out=ang[2:].reshape(6, 2, p))
+    cos, sin = np.cos(ang), np.sin(ang)
+    # joint cosines/sines and segment lengths, broadcast once to the axes' shape (3, 2, P)
+    c_leg, s_leg, lengths = np.empty((6, 3, 2, p)), np.empty((6, 3, 2, p)), np.empty((3, 3, 2, p))
+    c_leg[...] = cos[2:].reshape(6, 1, 2, p)
+    s_leg[...] = sin[2:].reshape(6, 1, 2, p)
+    lengths[...] = xt[L.LEN_THIGH : L.LEN_FOOT + 1, None, None]
+    l_thigh, l_calf, l_foot = lengths
+
+    ends = np.empty((7, 3, 2, p))
+    hip, knee, ankle, heel, toe, foot_start, foot_end = ends
+    _fill_hips(xt, cos[0], sin[0], cos[1], sin[1], hip)
+    # frame axes of each leg, starting from the pelvis yaw Rz(azimuth)
+    yaw = np.zeros((3, 3, 2, p))
+    yaw[0, 0] = yaw[1, 1] = cos[0]
+    yaw[0, 1] = sin[0]
+    np.negative(sin[0], out=yaw[1, 0])
+    yaw[2, 2] = 1.0
+    axes = list(yaw)
+
+    def turn(joint: int) -> None:
+        _turn_axes(axes, *_LEG_ROTATION_PLANES[joint], c_leg[joint], s_leg[joint])
+
+    for joint in (0, 1, 2):  # thigh
+        turn(joint)
+    np.multiply(axes[2], l_thigh, out=knee)
+    np.subtract(hip, knee, out=knee)
+    turn(3)  # calf
+    np.multiply(axes[2], l_calf, out=ankle)
+    np.subtract(knee, ankle, out=ankle)
+    for joint in (4, 5):  # foot
+        turn(joint)
+    fwd, lateral, up = axes
+    back = -HEEL_BACK * l_foot  # heel / toe in the foot frame: (back, 0, -h) / (back + l_foot, 0, -h)
+    down = up * (-ANKLE_HEIGHT * l_foot)
+    np.multiply(fwd, back, out=heel)
+    heel += down
+    heel += ankle
+    back += l_foot
+    np.multiply(fwd, back, out=toe)
+    toe += down
+    toe += ankle
+    # foot axis: heel/toe points inset by the end radii
+    np.multiply(fwd, FOOT_CAP_INSET * (FOOT_HEEL_RADIUS * l_foot), out=foot_start)
+    foot_start += heel
+    np.multiply(fwd, FOOT_CAP_INSET * (FOOT_TOE_RADIUS * l_foot), out=foot_end)
+    np.subtract(toe, foot_end, out=foot_end)
+    radii = (x[:, _RADIUS_INDEX] * _RADIUS_SCALE).reshape(p, 2, 3, 2)
+    return _Chain(ends=ends, lateral=lateral, radii=radii)
+
+
 def hip_positions(states: FloatArray) -> FloatArray:
     """``(P, 2, 3)`` hip joint centres [LEFT, RIGHT] in the body frame."""
-    x = np.atleast_2d(states)
-    r, az, el = x[:, L.HIP_DIST], x[:, L.HIP_AZ], x[:, L.HIP_EL]
-    right = x[:, L.ROOT]
-    off = np.stack([-np.sin(az) * np.cos(el) * r, np.cos(az) * np.cos(el) * r, np.sin(el) * r], -1)
-    return np.stack([right + off, right], axis=1)
+    x = np.atleast_2d(np.asarray(states, dtype=np.float64))
+    az, el = x[:, L.HIP_AZ], x[:, L.HIP_EL]
+    out = np.empty((3, 2, x.shape[0]))
+    _fill_hips(x.T, np.cos(az), np.sin(az), np.cos(el), np.sin(el), out)
+    return np.ascontiguousarray(out.transpose(2, 1, 0))
 
 
 def forward_kinematics(states: FloatArray) -> Kinematics:
     """Vectorised forward kinematics of ``(P, 23)`` (or ``(23,)``) states, body frame."""
-    x = np.atleast_2d(np.asarray(states, dtype=np.float64))
-    p = x.shape[0]
-    hips = hip_positions(x)
-    l_th, l_ca, l_ft = x[:, L.LEN_THIGH], x[:, L.LEN_CALF], x[:, L.LEN_FOOT]
-    r_th, r_ca = x[:, L.RAD_THIGH], x[:, L.RAD_CALF]
-    yaw = _rz(x[:, L.HIP_AZ])
-    segments = np.empty((p, 2, 3, 2, 3))
-    radii = np.empty((p, 2, 3, 2))
-    points = np.empty((p, 2, 5, 3))
-    lateral = np.empty((p, 2, 3))
-    down = np.array([0.0, 0.0, -1.0])
-    for side in (0, 1):
-        s = 1.0 if side == 0 else -1.0
-        a = x[:, L.leg(side)]
-        r_thigh = yaw @ _ry(-a[:, 0]) @ _rx(s * a[:, 1]) @ _rz(-s * a[:, 2])
-        r_calf = r_thigh @ _ry(a[:, 3])
-        r_foot = r_calf @ _ry(-a[:, 4]) @ _rx(-s * a[:, 5])
-        hip = hips[:, side]
-        knee = hip + (r_thigh @ down) * l_th[:, None]
-        ankle = knee + (r_calf @ down) * l_ca[:, None]
-        heel_local = np.stack([-HEEL_BACK * l_ft, np.zeros(p), -ANKLE_HEIGHT * l_ft], -1)
-        toe_local = heel_local + np.stack([l_ft, np.zeros(p), np.zeros(p)], -1)
-        heel = ankle + np.einsum("pij,pj->pi", r_foot, heel_local)
-        toe = ankle + np.einsum("pij,pj->pi", r_foot, toe_local)
-        segments[:, side, 0, 0], segments[:, side, 0, 1] = hip, knee
-        segments[:, side, 1, 0], segments[:, side, 1, 1] = knee, ankle
-        fwd = r_foot[:, :, 0]
-        r_heel, r_toe = FOOT_HEEL_RADIUS * l_ft, FOOT_TOE_RADIUS * l_ft
-        segments[:, side, 2, 0] = heel + fwd * (FOOT_CAP_INSET * r_heel)[:, None]
-        segments[:, side, 2, 1] = toe - fwd * (FOOT_CAP_INSET * r_toe)[:, None]
-        radii[:, side, 0, 0], radii[:, side, 0, 1] = r_th, THIGH_TAPER * r_th
-        radii[:, side, 1, 0], radii[:, side, 1, 1] = r_ca, CALF_TAPER * r_ca
-        radii[:, side, 2, 0], radii[:, side, 2, 1] = r_heel, r_toe
-        points[:, side, HIP], points[:, side, KNEE], points[:, side, ANKLE] = hip, knee, ankle
-        points[:, side, HEEL], points[:, side, TOE] = heel, toe
-        lateral[:, side] = r_foot[:, :, 1]
-    return Kinematics(segments=segments, radii=radii, points=points, foot_lateral=lateral)
+    return _chain(np.atleast_2d(np.asarray(states, dtype=np.float64))).kinematics()
 
 
 def joint_angles(state: FloatArray) -> FloatArray:
@@ -304,18 +416,72 @@ def joint_angles(state: FloatArray) -> FloatArray:
     return np.asarray(state, dtype=np.float64)[..., L.ANGLES].copy()
 
 
+def _sole_heights(
+    z_heel: FloatArray, z_toe: FloatArray, r_heel: FloatArray, r_toe: FloatArray, lateral_z: FloatArray
+) -> FloatArray:
+    """Lowest sole corner height from the foot axis end heights, end radii and lateral axis z (broadcast)."""
+    low_heel = r_heel * lateral_z
+    np.abs(low_heel, out=low_heel)
+    np.subtract(z_heel, low_heel, out=low_heel)
+    low_toe = r_toe * lateral_z
+    np.abs(low_toe, out=low_toe)
+    np.subtract(z_toe, low_toe, out=low_toe)
+    return np.minimum(low_heel, low_toe, out=low_heel)
+
+
 def sole_heights(kin: Kinematics) -> FloatArray:
     """``(P, 2)`` lowest height (m, body z) of each foot's sole (its 4 corner points).
 
     For the half-cylinder the sole is the flat base spanning ``±radius`` laterally
-    around the heel-toe axis, so the corners are heel/toe ± radius * lateral.
+    around the heel-toe axis, so the corners are heel/toe ± radius * lateral; the lower
+    corner of each end is at ``z - |radius * lateral_z|``.
     """
-    seg = kin.segments[:, :, 2]  # (P,2,2,3) heel, toe
-    rad = kin.radii[:, :, 2]  # (P,2,2)
-    lat_z = kin.foot_lateral[:, :, 2]  # (P,2)
-    z = seg[..., 2]  # (P,2,2)
-    corners = z[..., None] + rad[..., None] * lat_z[:, :, None, None] * np.array([-1.0, 1.0])
-    return corners.reshape(z.shape[0], 2, 4).min(axis=-1)
+    z, r = kin.segments[:, :, 2, :, 2], kin.radii[:, :, 2]
+    return _sole_heights(z[..., 0], z[..., 1], r[..., 0], r[..., 1], kin.foot_lateral[:, :, 2])
+
+
+def _dot3(u: FloatArray, v: FloatArray) -> FloatArray:
+    """Dot products over the first axis (length 3, xyz) of broadcast ``u`` and ``v``, summed in order."""
+    w = u * v
+    out = w[0] + w[1]
+    out += w[2]
+    return out
+
+
+def _closest_params(
+    a: FloatArray, b: FloatArray, c: FloatArray, e: FloatArray, f: FloatArray
+) -> tuple[FloatArray, FloatArray]:
+    """Clamped closest-point parameters ``(s, t)`` of segment pairs ``p1 + s d1``, ``p2 + t d2``.
+
+    Inputs (broadcast) are the dot products ``a = d1.d1``, ``b = d1.d2``, ``c = d1.r``,
+    ``e = d2.d2``, ``f = d2.r`` with ``r = p1 - p2`` (Ericson, *Real-Time Collision Detection*
+    §5.1.9); ``s`` and ``t`` have the broadcast shape.
+    """
+    eps = 1e-12
+    denom = a * e - b * b
+    with np.errstate(divide="ignore", invalid="ignore"):
+        # closest point of line 2 to segment 1 (s = 0 for parallel segments) ...
+        s = np.minimum(np.maximum((b * f - c * e) / np.maximum(denom, eps), 0.0), 1.0)
+        s = np.where(denom > eps, s, 0.0)
+        # ... its parameter on segment 2; where that is clamped to an end (t = 0 or 1), s becomes
+        # the clamped closest point of segment 1 to that end: (t b - c) / a
+        t_free = (b * s + f) / np.maximum(e, eps)
+        t = np.minimum(np.maximum(t_free, 0.0), 1.0)
+        s_end = np.minimum(np.maximum((b * t - c) / np.maximum(a, eps), 0.0), 1.0)
+        np.copyto(s, s_end, where=t != t_free)
+    return s, t
+
+
+def _closest_distances(
+    p1: FloatArray, d1: FloatArray, s: FloatArray, p2: FloatArray, d2: FloatArray, t: FloatArray
+) -> FloatArray:
+    """``|(p1 + s d1) - (p2 + t d2)|`` for xyz-first ``(3, ...)`` points/directions and ``(...)`` s, t."""
+    diff = p1 + d1 * s
+    diff -= p2 + d2 * t
+    diff *= diff
+    dist = diff[0] + diff[1]
+    dist += diff[2]
+    return np.sqrt(dist)
 
 
 def segment_distances(
@@ -325,44 +491,54 @@ def segment_distances(
 
     Vectorised clamped closest-point algorithm (Ericson, *Real-Time Collision Detection* §5.1.9).
     """
+    arrays = [np.asarray(v) for v in (p1, q1, p2, q2)]
+    ndim = max(v.ndim for v in arrays)
+    # xyz first (internal layout): reverse the axes of all inputs padded to the same ndim
+    p1, q1, p2, q2 = (v.reshape((1,) * (ndim - v.ndim) + v.shape).T for v in arrays)
     d1 = q1 - p1
     d2 = q2 - p2
     r = p1 - p2
-    a = np.einsum("...i,...i->...", d1, d1)
-    e = np.einsum("...i,...i->...", d2, d2)
-    f = np.einsum("...i,...i->...", d2, r)
-    c = np.einsum("...i,...i->...", d1, r)
-    b = np.einsum("...i,...i->...", d1, d2)
-    eps = 1e-12
-    denom = a * e - b * b
-    with np.errstate(divide="ignore", invalid="ignore"):
-        s = np.where(denom > eps, np.clip((b * f - c * e) / np.maximum(denom, eps), 0.0, 1.0), 0.0)
-        t = (b * s + f) / np.maximum(e, eps)
-        s = np.where(t < 0.0, np.clip(-c / np.maximum(a, eps), 0.0, 1.0), s)
-        s = np.where(t > 1.0, np.clip((b - c) / np.maximum(a, eps), 0.0, 1.0), s)
-        t = np.clip(t, 0.0, 1.0)
-    c1 = p1 + d1 * s[..., None]
-    c2 = p2 + d2 * t[..., None]
-    return np.linalg.norm(c1 - c2, axis=-1)
+    s, t = _closest_params(_dot3(d1, d1), _dot3(d1, d2), _dot3(d1, r), _dot3(d2, d2), _dot3(d2, r))
+    return _closest_distances(p1, d1, s, p2, d2, t).T
+
+
+def _collisions(pairs: FloatArray, radii: FloatArray, slack: float) -> BoolArray:
+    """:func:`collisions` from the segment pairs ``(4, 3, 9, P)`` [p1, q1, p2, q2] x xyz x pair x particle.
+
+    The same computation as :func:`segment_distances` on all 9 (left i, right j) pairs.
+    """
+    p1, q1, p2, q2 = pairs
+    d1 = q1 - p1
+    d2 = q2 - p2
+    r = p1 - p2
+    s, t = _closest_params(_dot3(d1, d1), _dot3(d1, d2), _dot3(d1, r), _dot3(d2, d2), _dot3(d2, r))
+    dist = _closest_distances(p1, d1, s, p2, d2, t)  # (9, P)
+    r1, r1_end, r2, r2_end = radii.T[_PAIR_RADIUS]  # (9, P) radii at p1, q1, p2, q2
+    thresh = r1 + r1_end
+    thresh /= 2.0
+    r2 += r2_end
+    r2 /= 2.0
+    thresh += r2
+    thresh *= slack  # slack * (mean radius of segment 1 + mean radius of segment 2)
+    return np.logical_or.reduce(dist < thresh, axis=0)
 
 
 def collisions(kin: Kinematics, *, slack: float = COLLISION_SLACK) -> BoolArray:
     """``(P,)`` True where any left segment intersects any right segment (capsule test)."""
-    seg = kin.segments
-    mean_r = kin.radii.mean(axis=-1)  # (P,2,3)
-    # all 9 (left i, right j) pairs
-    pl = seg[:, 0, :, None, 0]
-    ql = seg[:, 0, :, None, 1]
-    pr = seg[:, 1, None, :, 0]
-    qr = seg[:, 1, None, :, 1]
-    dist = segment_distances(pl, ql, pr, qr)  # (P,3,3)
-    thresh = slack * (mean_r[:, 0, :, None] + mean_r[:, 1, None, :])
-    return np.any(dist < thresh, axis=(1, 2))
+    pairs = kin.segments.transpose(1, 2, 3, 4, 0)[_PAIR_SIDE, _PAIR_SEG, _PAIR_END, _PAIR_XYZ]
+    return _collisions(pairs, kin.radii, slack)
 
 
 def clip_to_limits(states: FloatArray) -> FloatArray:
     """Box limits (in place on a copy); returns the clipped ``(P, 23)`` array."""
-    return np.clip(states, STATE_LOWER, STATE_UPPER)
+    x = np.maximum(states, STATE_LOWER)
+    return np.minimum(x, STATE_UPPER, out=x)
+
+
+def _lowest_sole(chain: _Chain) -> FloatArray:
+    """``(P,)`` height of the lowest sole corner of both feet."""
+    h = chain.sole_heights()
+    return np.minimum(h[0], h[1])
 
 
 def apply_floor_contact(states: FloatArray) -> FloatArray:
@@ -372,9 +548,7 @@ def apply_floor_contact(states: FloatArray) -> FloatArray:
     is therefore not a free search dimension.  Returns a new ``(P, 23)`` array.
     """
     x = np.array(np.atleast_2d(states), dtype=np.float64)
-    kin = forward_kinematics(x)
-    low = sole_heights(kin).min(axis=1)
-    x[:, L.ROOT_Z] -= low
+    x[:, L.ROOT_Z] -= _lowest_sole(_chain(x))
     return x
 
 
@@ -389,10 +563,9 @@ def constraint_violations(states: FloatArray, *, floor_tol: float = 0.005) -> Bo
     tol = 1e-9
     bad = np.any((x < STATE_LOWER - tol) | (x > STATE_UPPER + tol), axis=1)
     bad |= ~np.all(np.isfinite(x), axis=1)
-    kin = forward_kinematics(np.nan_to_num(x))
-    low = sole_heights(kin).min(axis=1)
-    bad |= np.abs(low) > floor_tol
-    bad |= collisions(kin)
+    chain = _chain(np.nan_to_num(x))
+    bad |= np.abs(_lowest_sole(chain)) > floor_tol
+    bad |= _collisions(chain.segment_pairs(), chain.radii, COLLISION_SLACK)
     return bad
 
 
@@ -408,15 +581,6 @@ def neutral_state(
     return apply_floor_contact(x[None])[0]
 
 
-def _shift_kinematics(kin: Kinematics, dz: FloatArray) -> Kinematics:
-    """Kinematics translated vertically by ``dz`` ``(P,)`` (body z)."""
-    seg = kin.segments.copy()
-    seg[..., 2] += dz[:, None, None, None]
-    pts = kin.points.copy()
-    pts[..., 2] += dz[:, None, None]
-    return Kinematics(segments=seg, radii=kin.radii, points=pts, foot_lateral=kin.foot_lateral)
-
-
 def enforce_constraints(
     states: FloatArray, *, fallback: FloatArray | None = None
 ) -> tuple[FloatArray, Kinematics, BoolArray]:
@@ -429,23 +593,14 @@ def enforce_constraints(
     Returns ``(states, kinematics, replaced)`` with kinematics of the returned states.
     """
     x = clip_to_limits(np.atleast_2d(np.asarray(states, dtype=np.float64)))
-    kin = forward_kinematics(x)
-    dz = -sole_heights(kin).min(axis=1)
+    chain = _chain(x)
+    dz = -_lowest_sole(chain)
     x[:, L.ROOT_Z] += dz
-    kin = _shift_kinematics(kin, dz)
-    bad = collisions(kin)
-    bad |= (x[:, L.ROOT_Z] < STATE_LOWER[L.ROOT_Z]) | (x[:, L.ROOT_Z] > STATE_UPPER[L.ROOT_Z])
-    if fallback is not None and np.any(bad):
-        fb = np.atleast_2d(fallback)
-        x[bad] = fb[bad]
-        kb = forward_kinematics(fb[bad])
-        seg = kin.segments.copy()
-        seg[bad] = kb.segments
-        rad = kin.radii.copy()
-        rad[bad] = kb.radii
-        pts = kin.points.copy()
-        pts[bad] = kb.points
-        lat = kin.foot_lateral.copy()
-        lat[bad] = kb.foot_lateral
-        kin = Kinematics(segments=seg, radii=rad, points=pts, foot_lateral=lat)
-    return x, kin, bad
+    chain.ends[:, 2] += dz  # the whole leg moves with the root
+    z = x[:, L.ROOT_Z]
+    bad = _collisions(chain.segment_pairs(), chain.radii, COLLISION_SLACK)
+    bad |= (z < STATE_LOWER[L.ROOT_Z]) | (z > STATE_UPPER[L.ROOT_Z])
+    if fallback is not None and bad.any():
+        x[bad] = np.atleast_2d(fallback)[bad]
+        chain.replace(bad, _chain(x[bad]))
+    return x, chain.kinematics(), bad

@@ -676,7 +676,7 @@ def thin_parts(mask: BoolArray, depth: NDArray[np.floating], *, fx: float, fy: f
     cols = np.flatnonzero(mask.any(axis=0))
     r0, r1, c0, c1 = int(rows[0]), int(rows[-1]) + 1, int(cols[0]), int(cols[-1]) + 1
     m = mask[r0:r1:stride, c0:c1:stride]
-    z = np.where(m, depth[r0:r1:stride, c0:c1:stride], np.float32(0.0)).astype(np.float32, copy=False)
+    z = depth[r0:r1:stride, c0:c1:stride].astype(np.float32)  # read only where m (True = valid depth)
     closed = m
     k = max(1, close_px // stride)
     if k > 1:
@@ -685,9 +685,9 @@ def thin_parts(mask: BoolArray, depth: NDArray[np.floating], *, fx: float, fy: f
     along = _run_lengths(np.ascontiguousarray(closed.T)).T * z * np.float32(stride / fy)
     thin = m & ((across < min_width) | (along < min_width))
     # back to full resolution: each full-res pixel takes its sub-sampled cell's verdict
-    ri = (np.arange(r0, r1) - r0) // stride
-    ci = (np.arange(c0, c1) - c0) // stride
-    out[r0:r1, c0:c1] = thin[ri[:, None], ci[None, :]]
+    if stride > 1:
+        thin = np.repeat(np.repeat(thin, stride, axis=0)[: r1 - r0], stride, axis=1)[:, : c1 - c0]
+    out[r0:r1, c0:c1] = thin
     out &= mask
     return out
 
