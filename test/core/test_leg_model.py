@@ -136,3 +136,131 @@ def test_joint_angles_order() -> None:
     x = lm.neutral_state()
     x[L.ANGLES] = np.arange(12) * 0.01
     np.testing.assert_allclose(lm.joint_angles(x), np.arange(12) * 0.01)
+
+
+def _reference_kinematics(x: np.ndarray) -> lm.Kinematics:
+    """Per-particle forward kinematics written out with explicit 3x3 matrices (module docstring chain)."""
+
+    def rot(axis: int, a: float) -> np.ndarray:
+        i, j = [(1, 2), (2, 0), (0, 1)][axis]
+        m = np.eye(3)
+        m[i, i] = m[j, j] = np.cos(a)
+        m[i, j], m[j, i] = -np.sin(a), np.sin(a)
+        return m
+
+    p = x.shape[0]
+    seg, rad = np.empty((p, 2, 3, 2, 3)), np.empty((p, 2, 3, 2))
+    pts, lat = np.empty((p, 2, 5, 3)), np.empty((p, 2, 3))
+    for k, st in enumerate(x):
+        dist, az, el = st[L.HIP_DIST], st[L.HIP_AZ], st[L.HIP_EL]
+        l_th, l_ca, l_ft, r_th, r_ca = st[L.SHAPE]
+        right = st[L.ROOT]
+        left = right + dist * np.array([-np.sin(az) * np.cos(el), np.cos(az) * np.cos(el), np.sin(el)])
+        for side, hip in ((0, left), (1, right)):
+            s = 1.0 if side == 0 else -1.0
+            flex, abd, hrot, knee_a, dorsi, inv = st[L.leg(side)]
+            r_thigh = rot(2, az) @ rot(1, -flex) @ rot(0, s * abd) @ rot(2, -s * hrot)
+            r_calf = r_thigh @ rot(1, knee_a)
+            r_foot = r_calf @ rot(1, -dorsi) @ rot(0, -s * inv)
+            knee = hip - l_th * r_thigh[:, 2]
+            ankle = knee - l_ca * r_calf[:, 2]
+            heel = ankle + r_foot @ np.array([-lm.HEEL_BACK * l_ft, 0.0, -lm.ANKLE_HEIGHT * l_ft])
+            toe = heel + l_ft * r_foot[:, 0]
+            r_heel, r_toe = lm.FOOT_HEEL_RADIUS * l_ft, lm.FOOT_TOE_RADIUS * l_ft
+            inset = lm.FOOT_CAP_INSET * np.array([r_heel, -r_toe])
+            pts[k, side] = hip, knee, ankle, heel, toe
+            seg[k, side] = [hip, knee], [knee, ankle], [heel, toe] + inset[:, None] * r_foot[:, 0]
+            rad[k, side] = [r_th, lm.THIGH_TAPER * r_th], [r_ca, lm.CALF_TAPER * r_ca], [r_heel, r_toe]
+            lat[k, side] = r_foot[:, 1]
+    return lm.Kinematics(segments=seg, radii=rad, points=pts, foot_lateral=lat)
+
+
+def _reference_segment_distance(p1: np.ndarray, q1: np.ndarray, p2: np.ndarray, q2: np.ndarray) -> float:
+    """Exact minimum of the convex |r + s d1 - t d2| over [0, 1]^2: interior stationary point or edge minima."""
+    d1, d2, r = q1 - p1, q2 - p2, p1 - p2
+    cands = []
+    for s in (0.0, 1.0):  # edges s = const: clamped 1-D minimum over t
+        t = np.clip((r + s * d1) @ d2 / (d2 @ d2), 0.0, 1.0) if d2 @ d2 > 0 else 0.0
+        cands.append((s, t))
+    for t in (0.0, 1.0):
+        s = np.clip((t * d2 - r) @ d1 / (d1 @ d1), 0.0, 1.0) if d1 @ d1 > 0 else 0.0
+        cands.append((s, t))
+    m = np.array([[d1 @ d1, -(d1 @ d2)], [-(d1 @ d2), d2 @ d2]])
+    if abs(np.linalg.det(m)) > 1e-12:
+        s, t = np.linalg.solve(m, [-(d1 @ r), d2 @ r])
+        if 0.0 <= s <= 1.0 and 0.0 <= t <= 1.0:
+            cands.append((s, t))
+    return min(float(np.linalg.norm(r + s * d1 - t * d2)) for s, t in cands)
+
+
+def _box_states(n: int, seed: int) -> np.ndarray:
+    """States uniform in the box limits, plus legs crossed towards each other (collisions)."""
+    rng = np.random.default_rng(seed)
+    x = lm.STATE_LOWER + rng.random((n, lm.STATE_DIM)) * (lm.STATE_UPPER - lm.STATE_LOWER)
+    crossed = np.tile(lm.neutral_state(hip_dist=0.12), (n, 1))
+    crossed[:, [L.LEFT.start + L.HIP_ABD, L.RIGHT.start + L.HIP_ABD]] = rng.uniform(-0.35, 0.05, (n, 2))
+    return np.concatenate([x, crossed])
+
+
+def test_forward_kinematics_matches_per_particle_reference() -> None:
+    x = _box_states(40, seed=11)
+    kin, ref = lm.forward_kinematics(x), _reference_kinematics(x)
+    for name in ("segments", "radii", "points", "foot_lateral"):
+        np.testing.assert_allclose(getattr(kin, name), getattr(ref, name), rtol=0, atol=1e-12, err_msg=name)
+    np.testing.assert_allclose(lm.forward_kinematics(x[3]).points, ref.points[3:4], rtol=0, atol=1e-12)
+    np.testing.assert_allclose(lm.hip_positions(x), ref.points[:, :, HIP], rtol=0, atol=1e-12)
+
+
+def test_sole_heights_and_collisions_match_per_pair_reference() -> None:
+    x = _box_states(40, seed=12)
+    kin = lm.forward_kinematics(x)
+    # sole corners: both ends of the foot axis +- radius along the lateral axis
+    z = kin.segments[:, :, 2, :, 2, None] + kin.radii[:, :, 2, :, None] * kin.foot_lateral[:, :, None, None, 2] * [-1, 1]
+    np.testing.assert_allclose(lm.sole_heights(kin), z.min(axis=(2, 3)), rtol=0, atol=1e-12)
+    mean_r = kin.radii.mean(axis=-1)
+    expected = np.zeros(len(x), dtype=bool)
+    for k in range(len(x)):
+        for i in range(3):
+            for j in range(3):
+                (p1, q1), (p2, q2) = kin.segments[k, 0, i], kin.segments[k, 1, j]
+                d = _reference_segment_distance(p1, q1, p2, q2)
+                np.testing.assert_allclose(lm.segment_distances(p1, q1, p2, q2), d, rtol=0, atol=1e-12)
+                expected[k] |= d < lm.COLLISION_SLACK * (mean_r[k, 0, i] + mean_r[k, 1, j])
+    assert 0 < expected.sum() < len(x)
+    np.testing.assert_array_equal(lm.collisions(kin), expected)
+    # segment_distances broadcasts like the (P, 3, 3) pair layout
+    pair = lm.segment_distances(
+        kin.segments[:, 0, :, None, 0], kin.segments[:, 0, :, None, 1], kin.segments[:, 1, None, :, 0],
+        kin.segments[:, 1, None, :, 1],
+    )
+    assert pair.shape == (len(x), 3, 3)
+
+
+def test_segment_distance_degenerate_and_parallel_segments() -> None:
+    rng = np.random.default_rng(13)
+    for _ in range(200):
+        p1, q1, p2, q2 = rng.normal(size=(4, 3))
+        kind = rng.integers(4)
+        if kind == 1:  # parallel
+            q2 = p2 + rng.uniform(-2, 2) * (q1 - p1)
+        elif kind == 2:  # first segment is a point
+            q1 = p1
+        elif kind == 3:  # both points
+            q1, q2 = p1, p2
+        expected = _reference_segment_distance(p1, q1, p2, q2)
+        np.testing.assert_allclose(lm.segment_distances(p1, q1, p2, q2), expected, rtol=0, atol=1e-9)
+
+
+def test_enforce_constraints_replaces_only_bad_particles() -> None:
+    x = _box_states(40, seed=14)
+    fb = np.tile(lm.neutral_state(), (len(x), 1))
+    y, kin, replaced = lm.enforce_constraints(x, fallback=fb)
+    y0, kin0, flagged = lm.enforce_constraints(x)
+    np.testing.assert_array_equal(replaced, flagged)
+    assert 0 < replaced.sum() < len(x)
+    np.testing.assert_array_equal(y[replaced], fb[replaced])
+    np.testing.assert_array_equal(y[~replaced], y0[~replaced])
+    ref = _reference_kinematics(y)
+    for name in ("segments", "radii", "points", "foot_lateral"):
+        np.testing.assert_allclose(getattr(kin, name), getattr(ref, name), rtol=0, atol=1e-12, err_msg=name)
+        np.testing.assert_array_equal(getattr(kin, name)[~replaced], getattr(kin0, name)[~replaced])

@@ -288,13 +288,13 @@ class _Chain:
         )
 
     def replace(self, rows: BoolArray, other: _Chain) -> None:
-        """In place: the particles ``rows`` ``(P,)`` become those of ``other`` (``rows.sum()`` particles)."""
+        """In place: the particles ``rows`` ``(P,)`` become those of ``other`` (``rows.sum()`` of them)."""
         self.ends[..., rows] = other.ends
         self.lateral[..., rows] = other.lateral
         self.radii[rows] = other.radii
 
     def segment_pairs(self) -> FloatArray:
-        """``(4, 3, 9, P)`` [p1, q1, p2, q2] ends of the (left, right) segment pairs of :func:`_collisions`."""
+        """``(4, 3, 9, P)`` [p1, q1, p2, q2] ends of the (left, right) segment pairs (:func:`_collisions`)."""
         return self.ends[_PAIR_ROW, _PAIR_XYZ, _PAIR_SIDE]
 
     def sole_heights(self) -> FloatArray:
@@ -346,7 +346,8 @@ def _chain(x: FloatArray) -> _Chain:
     # rotation angles [pelvis azimuth, elevation, 12 signed joint angles (joint-major)] x particle
     ang = np.empty((14, p))
     ang[:2] = xt[L.HIP_AZ : L.HIP_EL + 1]
-    np.multiply(xt[L.ANGLES].reshape(2, 6, p).transpose(1, 0, 2), _LEG_ANGLE_SIGNS, out=ang[2:].reshape(6, 2, p))
+    leg_angles = xt[L.ANGLES].reshape(2, 6, p).transpose(1, 0, 2)  # [joint, side, particle]
+    np.multiply(leg_angles, _LEG_ANGLE_SIGNS, out=ang[2:].reshape(6, 2, p))
     cos, sin = np.cos(ang), np.sin(ang)
     # joint cosines/sines and segment lengths, broadcast once to the axes' shape (3, 2, P)
     c_leg, s_leg, lengths = np.empty((6, 3, 2, p)), np.empty((6, 3, 2, p)), np.empty((3, 3, 2, p))
@@ -398,12 +399,12 @@ def _chain(x: FloatArray) -> _Chain:
 
 
 def hip_positions(states: FloatArray) -> FloatArray:
-    """``(P, 2, 3)`` hip joint centres [LEFT, RIGHT] in the body frame."""
-    x = np.atleast_2d(np.asarray(states, dtype=np.float64))
-    az, el = x[:, L.HIP_AZ], x[:, L.HIP_EL]
-    out = np.empty((3, 2, x.shape[0]))
-    _fill_hips(x.T, np.cos(az), np.sin(az), np.cos(el), np.sin(el), out)
-    return np.ascontiguousarray(out.transpose(2, 1, 0))
+    """``(P, 2, 3)`` hip joint centres [LEFT, RIGHT] in the body frame (as :func:`_fill_hips`)."""
+    x = np.atleast_2d(states)
+    r, az, el = x[:, L.HIP_DIST], x[:, L.HIP_AZ], x[:, L.HIP_EL]
+    right = x[:, L.ROOT]
+    off = np.stack([-np.sin(az) * np.cos(el) * r, np.cos(az) * np.cos(el) * r, np.sin(el) * r], -1)
+    return np.stack([right + off, right], axis=1)
 
 
 def forward_kinematics(states: FloatArray) -> Kinematics:
