@@ -106,3 +106,17 @@ def test_every_subcommand_has_help() -> None:
     for sub in ("run", "replay", "process", "batch", "demo"):
         res = walker_gait(sub, "--help")
         assert res.returncode == 0 and "usage" in res.stdout.lower(), sub
+
+
+def test_cli_limits_blas_threads_unless_the_user_chose() -> None:
+    """numpy's BLAS runs single-threaded in our processes (node children inherit it); a user value wins."""
+    import os
+
+    code = ("import walker_gait.cli, os, numpy; "
+            "print(os.environ['OMP_NUM_THREADS'], os.environ['OPENBLAS_NUM_THREADS'])")
+    env = {k: v for k, v in os.environ.items() if k not in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS")}
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, check=True)
+    assert out.stdout.split() == ["1", "1"]
+    env["OMP_NUM_THREADS"] = "2"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, check=True)
+    assert out.stdout.split() == ["2", "1"]

@@ -6,7 +6,11 @@ the file and the problem and exit with status 2, without a traceback.
 
 from __future__ import annotations
 
-import argparse
+from walker_gait import limit_blas_threads
+
+limit_blas_threads()  # before numpy is imported (by any walker_gait module); inherited by the node processes
+
+import argparse  # noqa: E402
 import os
 import signal
 import subprocess

@@ -4,6 +4,10 @@ from __future__ import annotations
 
 import sys
 
+from walker_gait import limit_blas_threads
+
+limit_blas_threads()
+
 
 def main(argv: list[str] | None = None) -> int:
     args = list(sys.argv[1:] if argv is None else argv)
