@@ -106,3 +106,17 @@ def test_report_process_failure_is_raised_and_other_outputs_written(short_sessio
     with pytest.raises(OSError, match="disk full"):
         process_recording(short_session, out, options=PipelineOptions(seed=4, write_mcap=False), progress=False)
     assert (out / "steps.csv").is_file() and not (out / "report.html").exists()
+
+
+@pytest.mark.parametrize("fmt", ["sqlite3", "ros1"])
+def test_prefetch_worker_reads_every_format(tmp_path: Path, fmt: str) -> None:
+    """The forked worker reads rosbag2/sqlite3 (an inherited SQLite connection) and ROS 1 bags as well."""
+    from walker_gait.synth import SessionSpec, generate_session, write_session
+
+    session = generate_session(SessionSpec.preset("normal", duration=1.0, scale=0.5), rng=np.random.default_rng(5))
+    path = tmp_path / ("walk.bag" if fmt == "ros1" else "walk")
+    write_session(session, path, fmt=fmt, encoding="16UC1")
+    inline = process_recording(path, tmp_path / "inline", options=_options(0), progress=False)
+    ahead = process_recording(path, tmp_path / "ahead", options=_options(2), progress=False)
+    assert ahead.frames == inline.frames == 30
+    assert (tmp_path / "ahead" / "joints.csv").read_bytes() == (tmp_path / "inline" / "joints.csv").read_bytes()
