@@ -8,6 +8,8 @@ errors (the seed paper's Tables 2-3 measure), heel-strike timing, cadence, and p
 
 from __future__ import annotations
 
+import warnings
+
 import time
 from dataclasses import dataclass, field
 from types import SimpleNamespace
@@ -138,21 +140,24 @@ def evaluate(session: Any, *, preset: str = "default", cue: str | None = None, s
         v = intr.fy * truth[..., 1] / truth[..., 2] + intr.cy
     inside = (truth[..., 2] > 0) & (u >= 0) & (u < intr.width) & (v >= 0) & (v < intr.height)  # (T, 2, 5)
     score.in_image_pct = {name: float(np.mean(inside[:, :, k]) * 100) for k, name in enumerate(LEG_POINTS)}
-    if vis.any():
-        score.joint_err_cm = {name: float(np.nanmean(err[vis][:, :, k]) * 100) for k, name in enumerate(LEG_POINTS)}
-        per_frame = np.nanmean(err[vis], axis=(1, 2))
-        score.frames_over_10cm_pct = float(np.mean(~(per_frame <= 0.10)) * 100)
-        lower = slice(1, 5)  # knee..toe: the observable points
-        score.swap_frames = int(np.sum(np.nanmean(swapped[vis][:, :, lower], axis=(1, 2)) + 0.05
-                                       < np.nanmean(err[vis][:, :, lower], axis=(1, 2))))
-    # recovery after the user appears (absent start): first time the error stays < 10 cm
-    if not vis.all() and vis.any():
-        first = int(np.argmax(vis))
-        ok = np.nanmean(err, axis=(1, 2)) < 0.10
-        for j in range(first, n):
-            if ok[j:j + 5].all():
-                score.recovery_s = float(session.stamps[j] - session.stamps[first])
-                break
+    # frames without an estimate (no user found: NaN points) are all-NaN slices: they count as > 10 cm
+    with warnings.catch_warnings():
+        warnings.filterwarnings("ignore", message="Mean of empty slice", category=RuntimeWarning)
+        if vis.any():
+            score.joint_err_cm = {name: float(np.nanmean(err[vis][:, :, k]) * 100) for k, name in enumerate(LEG_POINTS)}
+            per_frame = np.nanmean(err[vis], axis=(1, 2))
+            score.frames_over_10cm_pct = float(np.mean(~(per_frame <= 0.10)) * 100)
+            lower = slice(1, 5)  # knee..toe: the observable points
+            score.swap_frames = int(np.sum(np.nanmean(swapped[vis][:, :, lower], axis=(1, 2)) + 0.05
+                                           < np.nanmean(err[vis][:, :, lower], axis=(1, 2))))
+        # recovery after the user appears (absent start): first time the error stays < 10 cm
+        if not vis.all() and vis.any():
+            first = int(np.argmax(vis))
+            ok = np.nanmean(err, axis=(1, 2)) < 0.10
+            for j in range(first, n):
+                if ok[j:j + 5].all():
+                    score.recovery_s = float(session.stamps[j] - session.stamps[first])
+                    break
     # --- steps
     t_end = float(session.stamps[n - 1])
     gt = [s for s in _gt_as_steps(session) if s.stamp <= t_end]
