@@ -68,11 +68,12 @@ def test_depth_to_cloud_is_lazy(rclpy_context: None) -> None:
     node.pub_points = lambda msg: (published.append(msg), real_publish(msg))
     try:
         node.dispatch("depth/camera_info", M.CAMERA_INFO, node.on_info, info_bytes())
-        node.dispatch("depth/image_raw", M.IMAGE, node.on_image, image_bytes(good_depth()))
-        assert published == [] and node.frames_ok == 0
+        node.input.on_image_bytes(image_bytes(good_depth()))  # what the subscription calls
+        node.input.on_image_bytes(b"garbage")  # not even deserialised
+        assert published == [] and node.frames_ok == 0 and not node.problems
         sub = node.create_subscription(rclpy_type(M.POINT_CLOUD2), "points", lambda m: None, STREAM_IN, raw=True)
         assert node.points_wanted()
-        node.dispatch("depth/image_raw", M.IMAGE, node.on_image, image_bytes(good_depth(), stamp=2.0))
+        node.input.on_image_bytes(image_bytes(good_depth(), stamp=2.0))
         assert len(published) == 1 and node.frames_ok == 1
         node.destroy_subscription(sub)
     finally:

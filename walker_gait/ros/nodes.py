@@ -31,6 +31,7 @@ from walker_gait.ros.base import (
     STREAM_IN,
     WalkerNode,
     input_qos,
+    rclpy_type,
     spin_node,
     stream_in,
 )
@@ -54,7 +55,8 @@ class DepthInput:
     ``on_frame(depth, points, header)`` per image (``depth`` (H, W) float32 metres, NaN = no depth;
     ``points`` (H, W, 3) camera optical frame).  Images that arrive before the first CameraInfo (the
     two topics race at start-up) are held (:data:`WAITING_IMAGES`) and converted as soon as it comes.
-    ``wanted()`` returning False skips an image before it is decoded (lazy publishers).
+    ``wanted()`` returning False drops an image as it arrives, before it is even deserialised (lazy
+    publishers).
     """
 
     def __init__(self, node: WalkerNode, on_frame: Any, *, wanted: Any = None) -> None:
@@ -73,7 +75,12 @@ class DepthInput:
         self._warned_no_info = 0.0
         self._waiting: deque[Any] = deque(maxlen=WAITING_IMAGES)
         node.raw_subscription(M.CAMERA_INFO, "depth/camera_info", self.on_info, qos_in)
-        node.raw_subscription(M.IMAGE, "depth/image_raw", self.on_image, qos_in)
+        node.create_subscription(rclpy_type(M.IMAGE), "depth/image_raw", self.on_image_bytes, qos_in, raw=True)
+
+    def on_image_bytes(self, data: bytes) -> None:
+        """Subscription callback: a serialised image, dropped unread while it is not ``wanted``."""
+        if self.wanted is None or self.wanted():
+            self.node.dispatch("depth/image_raw", M.IMAGE, self.on_image, data)
 
     def on_info(self, msg: Any) -> None:
         from walker_gait.core.depth import intrinsics_from_camera_info
@@ -94,8 +101,6 @@ class DepthInput:
     def on_image(self, msg: Any) -> None:
         from walker_gait.core.depth import check_info_matches, decode_depth
 
-        if self.wanted is not None and not self.wanted():
-            return
         if self.info is None:
             now = time.monotonic()
             if now - self._warned_no_info > 5.0:
