@@ -37,7 +37,7 @@ def test_presets() -> None:
     assert PAPER.n_particles == 5000 and PAPER.cue2d_stride == 1 and PAPER.fg_fraction == 0.1
     assert PAPER.n_skeleton == 10 and not PAPER.partitioned and PAPER.n_layers == 1
     assert PAPER.lambda_3d == pytest.approx(200.0) and PAPER.lambda_2d == pytest.approx(1000 / 3)
-    assert DEFAULT.partitioned and DEFAULT.n_layers >= 2
+    assert DEFAULT.partitioned and DEFAULT.n_layers >= 2 and DEFAULT.coast_frames > 0
     with pytest.raises(ValueError):
         TrackerConfig(cue="rgb")  # type: ignore[arg-type]
     with pytest.raises(ValueError):
@@ -93,8 +93,14 @@ def test_no_user_and_reacquisition(seq) -> None:  # noqa: ANN001
     _run(tr, seq.frames[:6])
     empty_depth = np.full((KINECT.height, KINECT.width), np.nan, np.float32)
     floor = seq.frames[0].floor
-    for k in range(3):
+    held = seq.frames[5]
+    for k in range(FAST.coast_frames):  # a brief dropout holds the track: last estimate, DEGRADED, confidence 0
         pose = tr.update(stamp=1.0 + k, points=np.zeros((0, 3), np.float32), depth_fg=empty_depth, floor=floor)
+        assert pose.status == TrackStatus.DEGRADED and pose.confidence == 0.0 and pose.stamp == 1.0 + k
+        assert np.linalg.norm(pose.points - held.gt, axis=-1).mean() < 0.08
+    assert tr.particles is not None
+    for k in range(3):  # longer: the user is gone
+        pose = tr.update(stamp=9.0 + k, points=np.zeros((0, 3), np.float32), depth_fg=empty_depth, floor=floor)
         assert pose.status == TrackStatus.NO_USER
         assert np.all(np.isnan(pose.points))
     assert tr.particles is None
@@ -214,6 +220,22 @@ def test_redetects_when_the_second_leg_enters_view() -> None:
     with_redetection = late_error(DEFAULT.min_explained)
     assert with_redetection < 0.08
     assert late_error(0.0) > 2 * with_redetection  # the scenario does need the re-detection
+
+
+def test_track_survives_a_brief_dropout(seq) -> None:  # noqa: ANN001
+    """Frames without foreground (the lens blocked, depth out of range) do not restart the search."""
+    tr = LegTracker(FAST, KINECT, rng=np.random.default_rng(4))
+    _run(tr, seq.frames[:10])
+    empty_depth = np.full((KINECT.height, KINECT.width), np.nan, np.float32)
+    for k in range(4):
+        tr.update(stamp=5.0 + k, points=np.zeros((0, 3), np.float32), depth_fg=empty_depth, floor=seq.frames[0].floor)
+    inits: list[int] = []
+    search = tr._initialise
+    tr._initialise = lambda frame: (inits.append(1), search(frame))[1]  # type: ignore[method-assign]
+    poses = _run(tr, seq.frames[10:20])
+    assert inits == [] and all(p.status != TrackStatus.SEARCHING for p in poses)  # no re-initialisation
+    errs = [np.linalg.norm(p.points - f.gt, axis=-1).mean() for p, f in zip(poses, seq.frames[10:20])]
+    assert np.mean(errs) < 0.08, errs
 
 
 def test_detection_ignores_low_clutter_beside_the_legs() -> None:

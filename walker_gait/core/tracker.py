@@ -43,6 +43,8 @@ swap; ``mounting`` decides how anatomical axes map to the camera
 
 from __future__ import annotations
 
+import dataclasses
+
 import math
 from dataclasses import dataclass, field, replace
 from typing import Literal
@@ -132,6 +134,7 @@ class TrackerConfig:
     sigma_ankle: float = 0.07  # rad
     # track management
     min_fg_points: int = 60  # fewer foreground points = no user
+    coast_frames: int = 0  # frames a track is held (DEGRADED, confidence 0) through a foreground dropout before it is dropped (0 = at once)
     track_confidence: float = 0.55  # confidence for TRACKING
     degraded_confidence: float = 0.4  # below: DEGRADED
     lost_confidence: float = 0.25  # below this for `lost_frames` frames: re-initialise
@@ -202,6 +205,7 @@ DEFAULT = TrackerConfig(
     velocity_damping=0.7,
     init_rounds=6,
     min_explained=0.75,
+    coast_frames=15,
     fine_2d_only=True,
     sigma_root=0.008,
 )
@@ -294,6 +298,8 @@ class LegTracker:
         self._frames_tracked = 0
         self._hidden = _HiddenState()
         self.status = TrackStatus.NO_USER
+        self._coasted = 0
+        self._last_pose: LegPose | None = None
 
     @property
     def particles(self) -> FloatArray | None:
@@ -327,8 +333,15 @@ class LegTracker:
         cfg = self.config
 
         if pts.shape[0] < cfg.min_fg_points:
+            if self._x is not None and self._last_pose is not None and self._coasted < cfg.coast_frames:
+                # a brief dropout (a leg in front of the lens, nearer than the sensor's range, blanks the
+                # view): hold the track instead of re-detecting from whatever partial view comes next
+                self._coasted += 1
+                return dataclasses.replace(self._last_pose, stamp=stamp, status=TrackStatus.DEGRADED,
+                                           confidence=0.0)
             self.reset()
             return self._empty_pose(stamp)
+        self._coasted = 0
 
         frame = self._prepare(pts, depth, floor)
         searching = False
@@ -362,6 +375,7 @@ class LegTracker:
             status = TrackStatus.SEARCHING
         self.status = status
         pose.status = status
+        self._last_pose = pose
         return pose
 
     # ------------------------------------------------------------------ internals
