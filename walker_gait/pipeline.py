@@ -47,7 +47,7 @@ class PipelineOptions:
     camera_info_file: str | None = None
     write_mcap: bool = True
     write_report: bool = True
-    prefetch: int = 4  # frames decoded + segmented ahead in a worker thread (0: all in the calling thread)
+    prefetch: int = 4  # frames decoded + segmented ahead in a forked worker process (0: all in this process)
 
     def __post_init__(self) -> None:
         from walker_gait.core.gait import GaitConfig
@@ -164,7 +164,7 @@ class PreparedFrame:
 class FrameProcessor:
     """All stages for one camera, frame by frame (the offline twin of the live node graph).
 
-    Two halves that may run in different threads, each touching only its own state:
+    Two halves that may run in different processes, each touching only its own state:
     :meth:`set_camera_info` + :meth:`prepare` (decode, back-project, segment) and :meth:`track`
     (tracker + gait analyzer); :meth:`process` runs both.
     """
@@ -343,6 +343,14 @@ def _prepare_one(proc: FrameProcessor, frame: Any) -> PreparedFrame | Exception:
         return exc
 
 
+def _can_fork() -> bool:
+    """Whether worker processes can be forked here (not on platforms without fork, nor from a daemonic
+    ``batch`` worker, which may not have children)."""
+    import multiprocessing as mp
+
+    return "fork" in mp.get_all_start_methods() and not mp.current_process().daemon
+
+
 def _prepared_frames(recording: Any, proc: FrameProcessor, *, prefetch: int) -> Iterator[tuple[Any, Any]]:
     """``(frame, PreparedFrame or per-frame error)`` in recording order.
 
@@ -355,7 +363,7 @@ def _prepared_frames(recording: Any, proc: FrameProcessor, *, prefetch: int) -> 
     """
     import multiprocessing as mp
 
-    if prefetch <= 0 or "fork" not in mp.get_all_start_methods() or mp.current_process().daemon:
+    if prefetch <= 0 or not _can_fork():
         for frame in recording.iter_frames():
             yield frame, _prepare_one(proc, frame)
         return
@@ -418,7 +426,7 @@ def _in_background(fn: Any, *args: Any, **kwargs: Any) -> Any:
     """
     import multiprocessing as mp
 
-    if "fork" not in mp.get_all_start_methods() or mp.current_process().daemon:
+    if not _can_fork():
         fn(*args, **kwargs)
         return lambda: None
     pool = ProcessPoolExecutor(max_workers=1, mp_context=mp.get_context("fork"))
