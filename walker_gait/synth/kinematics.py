@@ -147,6 +147,11 @@ class GaitParams:
     trunk_lean: float = 0.10  # m, pelvis ahead of the stance ankle at mid stance
 
     @property
+    def stance_width(self) -> float:
+        """Heel-to-heel lateral distance while standing (m): the step width, but feet cannot overlap."""
+        return max(self.step_width, self.min_stance_width)
+
+    @property
     def step_time(self) -> float:
         """Mean step time (s)."""
         return 60.0 / self.cadence
@@ -210,21 +215,20 @@ def plan_footfalls(
     """Draw the footfall sequence (times, planted heel positions) for ``programme``.
 
     The user starts standing with the pelvis at ``(start_x, start_y)`` facing +X, feet
-    ``max(step_width, min_stance_width)`` apart (also after a closing step).
+    ``stance_width`` apart (also after a closing step).
     An infinite ``walk`` phase stops planning at ``t_end + 2`` s; after the last phase the user
     stands still.
     Returns ``(left, right)`` plans.
     """
     feet = (FootPlan(), FootPlan())
     ank = dims.ankle_forward
-    stance_width = max(params.step_width, params.min_stance_width)
     for side in (Side.LEFT, Side.RIGHT):
         sgn = _side_sign(side)
         yaw = sgn * params.toe_out
         feet[side].hs.append(-_BIG)
         feet[side].to.append(_BIG)
         feet[side].heel.append(
-            (start_x - ank * np.cos(yaw), start_y + sgn * stance_width / 2 - ank * np.sin(yaw))
+            (start_x - ank * np.cos(yaw), start_y + sgn * params.stance_width / 2 - ank * np.sin(yaw))
         )
         feet[side].yaw.append(yaw)
         feet[side].bout.append(-1)
@@ -322,7 +326,7 @@ def _plan_bout(
             asym_o = _side_sign(other)
             yaw_c = heading + asym_o * params.toe_out + np.deg2rad(1.0) * rng.standard_normal()
             along_c = _path_coord(feet[s], heading, origin) + 0.01 * rng.standard_normal()
-            lat_c = asym_o * max(params.step_width, params.min_stance_width) / 2
+            lat_c = asym_o * params.stance_width / 2
             feet[other].hs.append(hs_c)
             feet[other].to.append(_BIG)
             feet[other].heel.append(
