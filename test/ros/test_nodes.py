@@ -80,6 +80,40 @@ def test_depth_to_cloud_is_lazy(rclpy_context: None) -> None:
         node.destroy_node()
 
 
+def _spin_until(nodes: list[Any], cond: Any, timeout: float = 10.0) -> bool:
+    import time
+
+    from rclpy.executors import SingleThreadedExecutor
+
+    ex = SingleThreadedExecutor()
+    for n in nodes:
+        ex.add_node(n)
+    end = time.monotonic() + timeout
+    while not cond() and time.monotonic() < end:
+        ex.spin_once(timeout_sec=0.05)
+    ex.shutdown()
+    return bool(cond())
+
+
+def test_depth_to_cloud_subscribes_to_images_only_while_points_has_a_subscriber(rclpy_context: None) -> None:
+    """Without a `points` subscriber the node does not even subscribe to the depth images (receiving them
+    costs CPU); a subscriber appearing/leaving (the publisher's matched event) adds/removes it."""
+    from walker_gait.ros.base import STREAM_IN, rclpy_type
+    from walker_gait.ros.nodes import DepthToCloudNode
+
+    node = DepthToCloudNode()
+    probe = rclpy.create_node("lazy_probe")
+    try:
+        assert node.input.image_subscription is None
+        sub = probe.create_subscription(rclpy_type(M.POINT_CLOUD2), "points", lambda m: None, STREAM_IN, raw=True)
+        assert _spin_until([node, probe], lambda: node.input.image_subscription is not None)
+        probe.destroy_subscription(sub)
+        assert _spin_until([node, probe], lambda: node.input.image_subscription is None)
+    finally:
+        probe.destroy_node()
+        node.destroy_node()
+
+
 def test_depth_before_camera_info_is_held_then_processed(rclpy_context: None) -> None:
     from walker_gait.ros.nodes import WAITING_IMAGES
 

@@ -110,8 +110,9 @@ def run_live(path: Path, *, rate: float = 1.0, timeout_s: float = 120.0, settle_
     t0 = time.monotonic()
     try:
         # wait until every link of the graph is subscribed, so no frame is lost at the start
-        # (floor_segmentation reads the depth image itself; depth_to_cloud converts nothing unsubscribed)
-        links = {"/depth/image_raw": 3, "/depth/camera_info": 3, "/foreground/points": 1, "/foreground/mask": 1,
+        # (floor_segmentation reads the depth image itself; depth_to_cloud subscribes to it only while its
+        # `points` has a subscriber: none here)
+        links = {"/depth/image_raw": 2, "/depth/camera_info": 3, "/foreground/points": 1, "/foreground/mask": 1,
                  "/floor_plane": 2, "/leg_track": 1}
         while time.monotonic() - t0 < 60:
             rclpy.spin_once(node, timeout_sec=0.1)

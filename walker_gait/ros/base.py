@@ -110,8 +110,9 @@ class WalkerNode(Node):
             raise
 
     # -- pub/sub -----------------------------------------------------------------------------------
-    def raw_publisher(self, typename: str, topic: str, qos: QoSProfile) -> Callable[[Any], None]:
-        pub = self.create_publisher(rclpy_type(typename), topic, qos)
+    def raw_publisher(self, typename: str, topic: str, qos: QoSProfile, *,
+                      event_callbacks: Any = None) -> Callable[[Any], None]:
+        pub = self.create_publisher(rclpy_type(typename), topic, qos, event_callbacks=event_callbacks)
 
         def publish(msg: Any) -> None:
             pub.publish(M.serialize(msg))

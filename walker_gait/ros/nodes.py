@@ -56,10 +56,11 @@ class DepthInput:
     ``points`` (H, W, 3) camera optical frame).  Images that arrive before the first CameraInfo (the
     two topics race at start-up) are held (:data:`WAITING_IMAGES`) and converted as soon as it comes.
     ``wanted()`` returning False drops an image as it arrives, before it is even deserialised (lazy
-    publishers).
+    publishers); ``subscribed=False`` does not subscribe to the images at all until
+    :meth:`set_subscribed` (the CameraInfo subscription is always there).
     """
 
-    def __init__(self, node: WalkerNode, on_frame: Any, *, wanted: Any = None) -> None:
+    def __init__(self, node: WalkerNode, on_frame: Any, *, wanted: Any = None, subscribed: bool = True) -> None:
         from walker_gait.core.depth import DepthProjector
 
         self.node = node
@@ -67,15 +68,25 @@ class DepthInput:
         self.wanted = wanted
         self.depth_format = str(node.declare_parameter("depth_format", "auto").value)
         self.use_rectified = bool(node.declare_parameter("use_rectified", True).value)
-        qos_in = input_qos(str(node.declare_parameter("input_reliability", "best_effort").value))
+        self.qos_in = input_qos(str(node.declare_parameter("input_reliability", "best_effort").value))
         self.projector = DepthProjector()
         self.undistorter: Any = None
         self.info_key: tuple[Any, ...] | None = None
         self.info: Any = None
         self._warned_no_info = 0.0
         self._waiting: deque[Any] = deque(maxlen=WAITING_IMAGES)
-        node.raw_subscription(M.CAMERA_INFO, "depth/camera_info", self.on_info, qos_in)
-        node.create_subscription(rclpy_type(M.IMAGE), "depth/image_raw", self.on_image_bytes, qos_in, raw=True)
+        self.image_subscription: Any = None
+        node.raw_subscription(M.CAMERA_INFO, "depth/camera_info", self.on_info, self.qos_in)
+        self.set_subscribed(subscribed)
+
+    def set_subscribed(self, on: bool) -> None:
+        """Subscribe to ``depth/image_raw`` (``on``) or drop the subscription (no image is even delivered)."""
+        if on and self.image_subscription is None:
+            self.image_subscription = self.node.create_subscription(
+                rclpy_type(M.IMAGE), "depth/image_raw", self.on_image_bytes, self.qos_in, raw=True)
+        elif not on and self.image_subscription is not None:
+            self.node.destroy_subscription(self.image_subscription)
+            self.image_subscription = None
 
     def on_image_bytes(self, data: bytes) -> None:
         """Subscription callback: a serialised image, dropped unread while it is not ``wanted``."""
@@ -120,16 +131,26 @@ class DepthInput:
 class DepthToCloudNode(WalkerNode):
     """``depth/image_raw`` + ``depth/camera_info`` → ``points`` (organised, NaN = no depth).
 
-    Lazy: an image is only converted while ``points`` has a subscriber (a 640×480 cloud is 3.7 MB to
-    build and serialise; floor_segmentation reads the depth image itself by default).
+    Lazy: the node subscribes to ``depth/image_raw`` only while ``points`` has a subscriber (the publisher's
+    "matched" event), and an image that still arrives without one is dropped unread.  A 640×480 cloud
+    is 3.7 MB to build and serialise, and merely receiving the raw images cost ~8 % of a core at 30 Hz;
+    floor_segmentation reads the depth image itself by default.
     """
 
     def __init__(self, **kwargs: Any) -> None:
         super().__init__("depth_to_cloud", **kwargs)
-        self.pub_points = self.raw_publisher(M.POINT_CLOUD2, "points", STREAM)
+        from rclpy.event_handler import PublisherEventCallbacks
+
+        self.pub_points = self.raw_publisher(M.POINT_CLOUD2, "points", STREAM,
+                                             event_callbacks=PublisherEventCallbacks(matched=self.on_points_matched))
         self._points_publisher = self.pub_points.publisher  # type: ignore[attr-defined]
-        self.input = DepthInput(self, self.on_frame, wanted=lambda: self.points_wanted())
+        self.input = DepthInput(self, self.on_frame, wanted=lambda: self.points_wanted(),
+                                subscribed=self.points_wanted())
         self.on_info, self.on_image = self.input.on_info, self.input.on_image
+
+    def on_points_matched(self, info: Any) -> None:
+        """A subscriber of ``points`` came or went: (un)subscribe the depth images accordingly."""
+        self.input.set_subscribed(int(info.current_count) > 0)
 
     def points_wanted(self) -> bool:
         """True while something subscribes to ``points``."""
