@@ -102,6 +102,10 @@ class GaitConfig:
     swing; smaller motions (shuffling in place, tracker jitter) produce no events."""
     min_swing_time_s: float = 0.12
     """Shortest plausible swing (s): heel strikes earlier than this after toe off are ignored."""
+    min_stance_time_s: float = 0.2
+    """A foot cannot toe off within this time (s) of the detection of its own heel strike (stance lasts
+    >= 0.35 s even in fast walking; keeps a just-landed foot whose toe is still coming down, or noise,
+    from starting a second swing)."""
     max_swing_time_s: float = 3.0
     """A swing not landing within this time (s) resets the state machine."""
     plant_height_tol_m: float = 0.03
@@ -375,6 +379,7 @@ class GaitAnalyzer:
         self._swing_start_t = float("nan")
         self._swing_to_t = float("nan")
         self._rest_time = np.zeros(2)
+        self._landed_t = np.full(2, -math.inf)  # detection time of each foot's last heel strike
         self._o_sum = np.zeros((2, 2))
         self._o_n = np.zeros(2)
         self._o_best = [None, None]  # type: list[tuple[float, FloatArray] | None]
@@ -613,10 +618,17 @@ class GaitAnalyzer:
             return
         delta = self._smooth[k, :, :, :2] - self._smooth[kp, :, :, :2]  # (2, 2, 2)
         wm = 0.5 * (w + self._weight[kp])
-        g = np.zeros((2, 2))
+        # g[f]: displacement of the ground seen through foot f's planted points.  A foot with no planted
+        # point (swinging) sees the ground through the other foot instead, so that the planted foot's
+        # track stays put instead of following the swing; with neither planted, the toe (as before).
+        g = np.full((2, 2), np.nan)
+        ws = wm.sum(axis=1)
         for f in range(2):
-            ws = wm[f].sum()
-            g[f] = (wm[f, :, None] * delta[f]).sum(axis=0) / ws if ws > 1e-3 else delta[f, _T]
+            if ws[f] > 1e-3:
+                g[f] = (wm[f, :, None] * delta[f]).sum(axis=0) / ws[f]
+        for f in range(2):
+            if not ws[f] > 1e-3:
+                g[f] = g[1 - f] if ws[1 - f] > 1e-3 else delta[f, _T]
         self._track[k] = self._track[kp] + delta - g[::-1][:, None, :]
         if self._state == GaitState.SWING_LEFT:
             gg = g[Side.RIGHT]
@@ -653,6 +665,17 @@ class GaitAnalyzer:
         along = float(d @ direction)
         return max(along, lateral) / float(self._t[k] - self._t[idx[0]])
 
+    def _walker_speed(self, k: int, foot: int, point: int, direction: FloatArray) -> float:
+        """Speed (m/s) of a smoothed point along ``direction`` in the walker frame over the rest window
+        (a planted point moves backwards at the walker's speed, a swinging one forwards)."""
+        c = self.config
+        j = int(np.searchsorted(self._t[:k], self._t[k] - c.rest_window_s - 1e-9))
+        idx = np.nonzero(self._valid[j : k + 1] & np.isfinite(self._smooth[j : k + 1, foot, point, 0]))[0] + j
+        if idx.size < 2 or self._t[k] - self._t[idx[0]] < 0.5 * c.rest_window_s:
+            return math.nan
+        d = self._smooth[k, foot, point, :2] - self._smooth[idx[0], foot, point, :2]
+        return float(d @ direction) / float(self._t[k] - self._t[idx[0]])
+
     def _progression_dir(self) -> FloatArray:
         """Unit line of progression in the walker frame (xy)."""
         if self._strides:
@@ -685,13 +708,15 @@ class GaitAnalyzer:
                     self._anchor[f] = self._track[k, f, _T]
                     self._rest_time[f] = t
                     continue
+                if t - self._landed_t[f] < c.min_stance_time_s:
+                    continue
                 d = self._track[k, f, _T] - self._anchor[f]
                 # forward motion relative to the other foot, plus toe lift (the stance foot's
                 # toe stays on the floor until its own toe off)
                 toe_lift = max(float(self._smooth[k, f, _T, 2] - self._baseline[f, _T]), 0.0)
                 score = float(d @ u) + toe_lift
                 if score > best_score:
-                    best, best_score, best_dist = f, score, float(np.hypot(*d))
+                    best, best_score, best_dist = f, score, float(d @ u)
             if best >= 0 and best_score > 0 and best_dist >= c.min_swing_distance_m:
                 self._start_swing(k, best)
             return
@@ -705,18 +730,31 @@ class GaitAnalyzer:
         sw_dir = self._track[k, a, _H] - self._swing_heel_anchor
         sw_dir = sw_dir / max(float(np.hypot(*sw_dir)), 1e-9)
         # landed = the heel no longer advances relative to the other foot; if the other foot
-        # already lifts off, the relative track moves *backwards*, which also counts as landed
-        if (
-            self._advance_speed(k, a, sw_dir) < c.rest_speed_mps
-            and moved >= c.min_swing_distance_m
-            and t - self._swing_to_t >= c.min_swing_time_s
-            and (low or at_rest[a, _T])
+        # already lifts off, the relative track moves *backwards*, which also counts as landed.
+        # Walking has no flight phase: once the other foot has left the floor (heel and toe both
+        # lifted) while this heel is down, this foot has landed, even if tracker noise on the other
+        # foot's toe kept the relative track from coming to rest during the short double support
+        # (afterwards that track follows the other foot's swing and never rests).
+        # (checked in the walker frame, independent of the relative tracks: the other toe moves forward
+        # faster than the walker, this heel does not)
+        u = self._progression_dir()
+        other_lifted = (
+            bool(np.all(self._weight[k, 1 - a] < 0.5))
+            and self._weight[k, a, _H] >= 0.5
+            and self._walker_speed(k, 1 - a, _T, u) > c.rest_speed_mps
+            and self._walker_speed(k, a, _H, u) < c.rest_speed_mps
+        )
+        swung = moved >= c.min_swing_distance_m and t - self._swing_to_t >= c.min_swing_time_s
+        if swung and (
+            (self._advance_speed(k, a, sw_dir) < c.rest_speed_mps and (low or at_rest[a, _T]))
+            or (other_lifted and low)
         ):
             d = self._track[k, a, _H] - self._swing_heel_anchor
             self._pending_hs.append(
                 _PendingHS(side=a, k_det=k, t_det=t, t_to=self._swing_to_t, direction=d / max(np.hypot(*d), 1e-9))
             )
             self._state = GaitState.DOUBLE_SUPPORT
+            self._landed_t[a] = t
             self._anchor = self._track[k, :, _T].copy()
             self._rest_time[:] = t - c.rest_window_s
             self._o_sum[a] = 0.0
@@ -901,6 +939,10 @@ class GaitAnalyzer:
         t_end = float(ps.t_end) if ps.t_end is not None else ps.t_hs + c.double_support_max_s
         dt = self._frame_period()
         idx = self._valid_range(ps.t_hs, max(ps.t_hs, t_end - 0.5 * dt))
+        # the other toe is the reference only while it is on the floor (a late toe-off detection must not
+        # let its forward swing shorten the step)
+        planted = idx[self._weight[idx, b, _T] >= 0.5]
+        idx = planted if planted.size else idx[:1]
         fallback = ps.o_fallback
         o = ps.o_opp
         if o is None:
