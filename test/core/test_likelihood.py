@@ -14,7 +14,10 @@ from walker_gait.core.likelihood import (
     Cue2DParams,
     Cue3DParams,
     CueImage,
+    Workspace,
+    _pairwise_distances,
     combine_log_likelihoods,
+    depth_costs,
     log_likelihood_2d,
     log_likelihood_3d,
     render_depth,
@@ -126,3 +129,175 @@ def test_occlusion_aware_3d_ignores_hidden_points(frame) -> None:  # noqa: ANN00
     pts, w = skeleton_points(seg, rad, n=6)
     occ = cue.occluded(pts.reshape(1, -1, 3), w.reshape(1, -1), tol=0.04)
     assert occ.mean() > 0.3
+
+
+# -- optimised kernels vs straightforward references (results must be bit-identical) -----------
+def _render_reference(seg: np.ndarray, rad: np.ndarray, cue: CueImage, bbox: tuple[int, int, int, int], clip: np.ndarray) -> np.ndarray:
+    """The renderer's arithmetic with plain boolean masks, one segment at a time over its bbox (union over
+    particles of the projected segment grown by its radius)."""
+    intr = cue.intrinsics
+    v0, v1, u0, u1 = bbox
+    p, s = seg.shape[:2]
+    out = np.full((p, v1 - v0, u1 - u0), np.inf, dtype=np.float32)
+    fx, fy = float(intr.fx), float(intr.fy)
+    za, zb = np.maximum(seg[:, :, 0, 2], 0.05), np.maximum(seg[:, :, 1, 2], 0.05)
+    ax, ay = fx * seg[:, :, 0, 0] / za + intr.cx, fy * seg[:, :, 0, 1] / za + intr.cy
+    bx, by = fx * seg[:, :, 1, 0] / zb + intr.cx, fy * seg[:, :, 1, 1] / zb + intr.cy
+    rmax_px = fx * np.maximum(rad[:, :, 0] / za, rad[:, :, 1] / zb)
+    for j in range(s):
+        su0 = max(int(np.floor(np.min(np.minimum(ax[:, j], bx[:, j]) - rmax_px[:, j]))) - 1, u0)
+        su1 = min(int(np.ceil(np.max(np.maximum(ax[:, j], bx[:, j]) + rmax_px[:, j]))) + 2, u1)
+        sv0 = max(int(np.floor(np.min(np.minimum(ay[:, j], by[:, j]) - rmax_px[:, j]))) - 1, v0)
+        sv1 = min(int(np.ceil(np.max(np.maximum(ay[:, j], by[:, j]) + rmax_px[:, j]))) + 2, v1)
+        if su1 <= su0 or sv1 <= sv0:
+            continue
+        uu, vv = np.arange(su0, su1, dtype=np.float64), np.arange(sv0, sv1, dtype=np.float64)
+        dx, dy = bx[:, j] - ax[:, j], by[:, j] - ay[:, j]
+        len2 = np.maximum(dx * dx + dy * dy, 1e-6)
+        ln = np.sqrt(len2)
+        tu = ((uu[None, :] - ax[:, j, None]) * (dx / len2)[:, None]).astype(np.float32)
+        tv = ((vv[None, :] - ay[:, j, None]) * (dy / len2)[:, None]).astype(np.float32)
+        pu = ((uu[None, :] - ax[:, j, None]) * (-dy / ln)[:, None]).astype(np.float32)
+        pv = ((vv[None, :] - ay[:, j, None]) * (dx / ln)[:, None]).astype(np.float32)
+        t_raw = tv[:, :, None] + tu[:, None, :]
+        t = np.clip(t_raw, 0.0, 1.0)
+        excess = (t_raw - t) * ln.astype(np.float32)[:, None, None]
+        dperp = pv[:, :, None] + pu[:, None, :]
+        d2 = dperp * dperp + excess * excess
+        r = t * (rad[:, j, 1] - rad[:, j, 0]).astype(np.float32)[:, None, None] + rad[:, j, 0].astype(np.float32)[:, None, None]
+        z = t * (zb[:, j] - za[:, j]).astype(np.float32)[:, None, None] + za[:, j].astype(np.float32)[:, None, None]
+        rho = r * np.float32(fx) / z
+        q = 1.0 - d2 / (rho * rho)
+        inside = q > 0
+        z = z - np.sqrt(np.maximum(q, 0.0)) * r
+        if clip[j]:
+            h = z * cue.ray_up[sv0:sv1, su0:su1][None] + np.float32(cue.floor_offset)
+            inside &= h >= np.float32(max(cue.min_height, 0.0) - 0.005)
+        view = out[:, sv0 - v0 : sv1 - v0, su0 - u0 : su1 - u0]
+        view[...] = np.minimum(view, np.where(inside, z, np.float32(np.inf)))
+    return out.reshape(p, -1)
+
+
+def _degenerate_particles() -> tuple[np.ndarray, np.ndarray]:
+    seg, rad = _cam(_perturbed())
+    seg, rad = seg.copy(), rad.copy()
+    rad[1, 0] = 0.0  # zero radius: rho = 0, nothing rendered
+    seg[2, 1, 1] = seg[2, 1, 0]  # zero-length segment (a sphere)
+    seg[3, 4, :, 2] = [0.01, 0.02]  # in front of the near clip (depth clamped)
+    return seg, rad
+
+
+def test_render_depth_matches_reference(frame) -> None:  # noqa: ANN001
+    seg, rad = _degenerate_particles()
+    clip = np.array([False, False, True] * 2)
+    for stride in (4, 10):
+        cue = CueImage.from_depth(frame.depth, intrinsics=KINECT, stride=stride, floor=FLOOR, min_height=0.03)
+        bbox = (0, cue.intrinsics.height, 0, cue.intrinsics.width)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            ref = _render_reference(seg, rad, cue, bbox, clip)
+        with np.errstate(divide="ignore"):  # the zero-radius segment
+            got = render_depth(seg, rad, cue=cue, bbox=bbox, floor_clip=clip)
+        assert not np.isnan(got).any()
+        assert np.isinf(got[1]).sum() > np.isinf(got[0]).sum()  # the zero-radius thigh is not drawn
+        np.testing.assert_array_equal(got, ref)
+        # same result rendered into a caller's (dirty) buffer with a workspace, twice
+        work = Workspace()
+        buf = np.full(ref.shape, -1.0, np.float32)
+        with np.errstate(divide="ignore"):
+            for _ in range(2):
+                np.testing.assert_array_equal(render_depth(seg, rad, cue=cue, bbox=bbox, floor_clip=clip, work=work, out=buf), ref)
+            # a bbox cropping the model
+            crop = (bbox[0] + 5, bbox[1] - 3, bbox[2] + 7, bbox[3] - 2)
+            cropped = render_depth(seg, rad, cue=cue, bbox=crop, floor_clip=clip, work=work)
+        full = ref.reshape(len(seg), bbox[1], bbox[3])
+        np.testing.assert_array_equal(cropped.reshape(len(seg), crop[1] - crop[0], -1), full[:, crop[0] : crop[1], crop[2] : crop[3]])
+
+
+def test_depth_costs_match_reference(frame) -> None:  # noqa: ANN001
+    cue = CueImage.from_depth(frame.depth, intrinsics=KINECT, stride=8, floor=FLOOR, min_height=0.03)
+    seg, rad = _cam(_perturbed())
+    bbox = (0, cue.intrinsics.height, 0, cue.intrinsics.width)
+    model = render_depth(seg, rad, cue=cue, bbox=bbox)
+    obs = cue.depth.ravel()
+    assert (np.isinf(model).any(axis=1)).all() and (obs > 0).any()
+    for params in (Cue2DParams(), Cue2DParams(occlusion_aware=True, truncate=0.5), Cue2DParams(truncate=0.01)):
+        empty = ~np.isfinite(model)
+        m = np.where(empty, np.float32(0.0), model)
+        ref = np.abs(m - obs[None, :])
+        if params.occlusion_aware:
+            ref[(obs[None, :] > 0) & ~empty & (obs[None, :] < m - np.float32(params.occlusion_tol))] = np.float32(params.occluded_cost)
+        if np.isfinite(params.truncate):
+            ref = np.minimum(ref, np.float32(params.truncate))
+        kept = model.copy()
+        np.testing.assert_array_equal(depth_costs(model, obs, params=params), ref)
+        np.testing.assert_array_equal(model, kept)  # not overwritten by default
+        work = Workspace()
+        got = depth_costs(model.copy(), obs, params=params, overwrite=True, work=work)
+        np.testing.assert_array_equal(got, ref)
+        assert got.dtype == np.float32
+
+
+def test_pairwise_distances_match_reference(frame) -> None:  # noqa: ANN001
+    seg, rad = _cam(_perturbed())
+    pts, _ = skeleton_points(seg, rad, n=6)
+    model = pts.reshape(5, -1, 3).astype(np.float32)
+    fg = frame.points[:200].astype(np.float32)
+    fg = np.concatenate([fg, model[0, :3]])  # foreground points on model points: distance 0 (rounding can give sq < 0)
+    fg_sq = np.einsum("ij,ij->i", fg, fg)
+    flat = model.reshape(-1, 3)
+    sq = flat @ (-2.0 * fg.T) + np.einsum("ij,ij->i", flat, flat)[:, None] + fg_sq[None, :]
+    ref = np.sqrt(np.maximum(sq, 0.0)).reshape(5, -1, fg.shape[0])
+    np.testing.assert_array_equal(_pairwise_distances(model, fg, fg_sq), ref)
+    np.testing.assert_array_equal(_pairwise_distances(model, fg, fg_sq, work=Workspace()), ref)
+
+
+def test_skeleton_points_and_3d_cue_match_reference(frame) -> None:  # noqa: ANN001
+    seg, rad = _cam(_perturbed())
+    pts, w = skeleton_points(seg, rad, n=6)
+    t = np.linspace(0.0, 1.0, 8)
+    ref_pts = seg[:, :, 0, None, :] + (seg[:, :, 1, None, :] - seg[:, :, 0, None, :]) * t[None, None, :, None]
+    np.testing.assert_array_equal(pts, ref_pts)
+    assert pts.flags.c_contiguous
+    fg = frame.points[np.random.default_rng(2).choice(len(frame.points), 100, replace=False)]
+    fg32 = fg.astype(np.float32)
+    d = _pairwise_distances(pts.reshape(5, -1, 3).astype(np.float32), fg32, np.einsum("ij,ij->i", fg32, fg32))
+    w32 = w.reshape(5, -1).astype(np.float32)
+    d_mf = np.abs(d.min(axis=2) - w32).sum(axis=1) / np.full(5, w32.shape[1])  # (integer counts)
+    d_fm = np.abs(d - w32[:, :, None]).min(axis=1).mean(axis=1)
+    ref = -PAPER_LAMBDA_3D * (0.5 * (d_fm + d_mf)).astype(np.float64)
+    np.testing.assert_array_equal(log_likelihood_3d(seg, rad, fg=fg, params=Cue3DParams(n_skeleton=6)), ref)
+
+
+def test_likelihoods_with_workspace_are_identical(frame) -> None:  # noqa: ANN001
+    cue = CueImage.from_depth(frame.depth, intrinsics=KINECT, stride=8, floor=FLOOR, min_height=0.03)
+    seg, rad = _cam(_perturbed())
+    fg = frame.points[np.random.default_rng(1).choice(len(frame.points), 150, replace=False)]
+    p3 = Cue3DParams(occlusion_aware=True, truncate=0.15, n_skeleton=6)
+    p2 = Cue2DParams(stride=8, occlusion_aware=True, truncate=0.5)
+    clip = np.array([False, False, True] * 2)
+    ref3 = log_likelihood_3d(seg, rad, fg=fg, params=p3, cue_image=cue, active=np.array([True, False, True] * 2))
+    ref2 = log_likelihood_2d(seg, rad, cue=cue, params=p2, floor_clip=clip)
+    work = Workspace()
+    # shared workspace, alternating sizes (fewer segments/points/particles in between): no stale state
+    for _ in range(2):
+        np.testing.assert_array_equal(
+            log_likelihood_3d(seg, rad, fg=fg, params=p3, cue_image=cue, active=np.array([True, False, True] * 2), work=work), ref3
+        )
+        np.testing.assert_array_equal(log_likelihood_2d(seg, rad, cue=cue, params=p2, floor_clip=clip, work=work), ref2)
+        log_likelihood_3d(seg[:2, :3], rad[:2, :3], fg=fg[:40], params=p3, cue_image=cue, work=work)
+        log_likelihood_2d(seg[:2, :3], rad[:2, :3], cue=cue, params=p2, floor_clip=clip[:3], work=work)
+    # chunked particles (shared scratch across chunks)
+    np.testing.assert_array_equal(log_likelihood_2d(seg, rad, cue=cue, params=p2, floor_clip=clip, work=work, chunk=2), ref2)
+
+
+def test_workspace_reuses_and_grows_buffers() -> None:
+    work = Workspace()
+    a = work.buffer("x", (4, 5))
+    assert a.shape == (4, 5) and a.dtype == np.float32 and a.flags.c_contiguous
+    b = work.buffer("x", (2, 3))
+    assert np.shares_memory(a, b)  # same memory handed out again
+    c = work.buffer("x", (10, 10))  # larger: a new buffer
+    assert c.shape == (10, 10) and not np.shares_memory(a, c)
+    d = work.buffer("x", (3,), np.bool_)  # another dtype is another buffer
+    assert d.dtype == np.bool_ and not np.shares_memory(c, d)
+    assert not np.shares_memory(work.buffer("y", (4, 5)), work.buffer("x", (4, 5)))

@@ -60,6 +60,7 @@ from walker_gait.core.likelihood import (
     Cue2DParams,
     Cue3DParams,
     CueImage,
+    Workspace,
     foreground_costs,
     log_likelihood_2d,
     log_likelihood_3d,
@@ -284,6 +285,7 @@ class LegTracker:
             occlusion_aware=config.occlusion_aware,
         )
         self._floor_clip = np.array([False, False, True] * 2)
+        self._work = Workspace()  # likelihood scratch buffers, reused across frames
         self.reset()
 
     # ------------------------------------------------------------------ public API
@@ -441,6 +443,7 @@ class LegTracker:
                 ref_fg_costs=None if ref is None else ref.fg_costs,
                 active=self._active(legs),
                 cue_image=frame.cue,
+                work=self._work,
             )
         if cfg.cue == "2d" or (cfg.cue == "combined" and use_2d):
             # Only pixels some particle renders differ between particles; every other pixel adds the
@@ -461,6 +464,7 @@ class LegTracker:
                 bbox=bbox,
                 ref_render=ref_render,
                 floor_clip=self._floor_clip[: seg.shape[1]],
+                work=self._work,
             )
         return total
 
