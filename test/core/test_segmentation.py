@@ -272,6 +272,42 @@ def test_roi_sides_and_limits() -> None:
     assert res2.n_foreground == 0 or (wk[:, 0].max() < 0.8 + 0.03 and wk[:, 2].max() < 0.2 + 0.03)
 
 
+def _kept_right_leg(seg: Segmenter, frames: range, offset: float, rng: np.random.Generator) -> float:
+    """Fraction of the user's rightmost leg (walker -y) kept over ``frames`` of gait, both legs moved
+    sideways by ``offset`` (m) as for a camera mounted off the walker's centre line."""
+    proj = DepthProjector(QVGA)
+    kept = total = 0
+    for i in frames:
+        (x0, y0), (x1, y1) = gait_legs(i)
+        scene = scene_cached(((x0, y0 + offset), (x1, y1 + offset)), QVGA, bar=None)  # type: ignore[arg-type]
+        depth = noisy_depth(scene, rng)
+        res = seg.process(depth, proj.points(depth))
+        leg = (scene.labels == LABEL_LEG) & np.isfinite(depth) & (scene.height > 0.1)
+        right = leg & (scene.walker[..., 1] < offset - 0.07)
+        kept += int((right & res.mask).sum())
+        total += int(right.sum())
+    return kept / total
+
+
+def test_roi_follows_legs_of_an_off_centre_camera() -> None:
+    """Legs 12 cm to one side of the box's centre (camera mounted off the centre line): the box follows
+    them within a couple of seconds and the outer leg is kept; a fixed box (center_max_shift=0) keeps
+    cutting it; legs near the centre (inside the dead band) leave the box exactly where it is."""
+    rng = np.random.default_rng(11)
+    follow = Segmenter(rng=rng, intrinsics=QVGA)
+    fixed = Segmenter(SegmenterConfig(roi=RoiConfig(center_max_shift=0.0)), rng=rng, intrinsics=QVGA)
+    settle, later = range(0, 60), range(60, 90)
+    _kept_right_leg(follow, settle, -0.12, rng)
+    _kept_right_leg(fixed, settle, -0.12, rng)
+    assert -0.15 <= follow.roi_shift <= -0.06
+    assert fixed.roi_shift == 0.0
+    assert _kept_right_leg(follow, later, -0.12, rng) >= 0.95
+    assert _kept_right_leg(fixed, later, -0.12, rng) < 0.6
+    centred = Segmenter(rng=rng, intrinsics=QVGA)
+    assert _kept_right_leg(centred, settle, 0.0, rng) >= 0.95
+    assert centred.roi_shift == 0.0
+
+
 # --------------------------------------------------------------------------- background model (seed)
 
 
@@ -424,6 +460,12 @@ def test_config_validation() -> None:
         Segmenter(SegmenterConfig(floor_method="magic"), rng=np.random.default_rng(0))
     with pytest.raises(ValueError, match="roi.near"):
         SegmenterConfig(roi=RoiConfig(near=2.0)).validate()
+    with pytest.raises(ValueError, match="center_gain"):
+        RoiConfig(center_gain=1.5).validate()
+    with pytest.raises(ValueError, match="center_max_shift"):
+        RoiConfig(center_max_shift=-0.1).validate()
+    with pytest.raises(ValueError, match="center_deadband"):
+        RoiConfig(center_deadband=math.nan).validate()
     with pytest.raises(ValueError, match="max_tilt_deg"):
         FloorConfig(max_tilt_deg=120).validate()
     with pytest.raises(ValueError, match="hmm.alpha"):

@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from os import PathLike
 from pathlib import Path
 
@@ -524,9 +524,25 @@ class RoiConfig:
     """Extra floor band growing with the squared optical depth (m per m²)."""
     max_height: float | None = None
     """Optional max height above the floor (m); None = no limit (seed)."""
+    center_max_shift: float = 0.15
+    """Auto-centring: the box follows the user's legs sideways by up to this (m), so that a camera
+    mounted off the walker's centre line does not cut a leg (the box is kept where the legs' lateral
+    centre would be for a centred camera).  0 = a fixed box (seed)."""
+    center_deadband: float = 0.05
+    """Auto-centring: the box only moves once the legs' lateral centre is more than this (m) off the
+    walker's centre line (a user walking a little to one side of a centred camera keeps the fixed box)."""
+    center_gain: float = 0.05
+    """Auto-centring: fraction of the remaining lateral offset corrected per frame (0.05 at 30 Hz:
+    time constant ~0.7 s, so a leg briefly hidden behind the other barely moves the box)."""
 
     def validate(self) -> None:
         """Raise ``ValueError`` naming the first invalid field."""
+        if not (math.isfinite(self.center_max_shift) and self.center_max_shift >= 0):
+            raise ValueError(f"roi.center_max_shift must be finite and >= 0, got {self.center_max_shift}")
+        if not (math.isfinite(self.center_deadband) and self.center_deadband >= 0):
+            raise ValueError(f"roi.center_deadband must be finite and >= 0, got {self.center_deadband}")
+        if not (0 <= self.center_gain <= 1):
+            raise ValueError(f"roi.center_gain must be in [0, 1], got {self.center_gain}")
         for name in ("forward", "left", "right", "min_height_per_m2"):
             v = getattr(self, name)
             if not (math.isfinite(v) and v >= 0):
@@ -973,6 +989,8 @@ class Segmentation:
     """Pixels removed as parts thinner than ``min_part_width``."""
     n_foreground: int = 0
     """Foreground pixels (= ``len(points)``)."""
+    roi_shift: float = 0.0
+    """Lateral shift (m, walker +y) of the ROI box used for this frame's successor (auto-centring)."""
 
     def foreground_depth(self, depth_m: NDArray[np.floating]) -> F32:
         """Copy of ``depth_m`` (float32, m) with NaN outside the foreground mask."""
@@ -1017,9 +1035,14 @@ class Segmenter:
         if background is None and self.config.background_path:
             self.background = BackgroundModel.load(self.config.background_path)
         self._bg_frames: list[F32] = []
+        roi = self.config.roi
+        # the HMM grid covers every position the auto-centred box can take
+        grid_roi = replace(roi, left=roi.left + roi.center_max_shift, right=roi.right + roi.center_max_shift)
         self.hmm: OccupancyHMM | None = (
-            OccupancyHMM(self.config.hmm, self.config.roi) if self.config.use_occupancy_hmm else None
+            OccupancyHMM(self.config.hmm, grid_roi) if self.config.use_occupancy_hmm else None
         )
+        self.roi_shift = 0.0
+        """Current lateral shift (m, walker +y) of the ROI box (auto-centring)."""
         self.frames = 0
         self.empty_frames = 0
 
@@ -1121,8 +1144,8 @@ class Segmenter:
             xw, yw, h = self._walker_coords(pts, z, floor)
             in_roi = xw <= roi.forward  # in-place &= avoids temporaries (speed)
             in_roi &= xw >= roi.near
-            in_roi &= yw <= roi.left
-            in_roi &= yw >= -roi.right
+            in_roi &= yw <= roi.left + self.roi_shift
+            in_roi &= yw >= self.roi_shift - roi.right
             if roi.max_height is not None:
                 in_roi &= h <= roi.max_height
         elif cfg.floor_method == "background" and not cfg.require_floor:
@@ -1167,6 +1190,8 @@ class Segmenter:
             static = self.hmm.static_cells(cells)
             n_static = int(np.count_nonzero(static))
             mask[idx[static]] = False
+        if roi.center_max_shift > 0 and yw is not None and h is not None:
+            self._follow_legs(mask, yw, h, zf)
         fg = _select_rows(pts, mask)
         n_fg = int(fg.shape[0])
         return Segmentation(
@@ -1182,4 +1207,25 @@ class Segmenter:
             n_static=n_static,
             n_thin=n_thin,
             n_foreground=n_fg,
+            roi_shift=self.roi_shift,
         )
+
+    def _follow_legs(self, mask: BoolArray, yw: F32, h: F32, z: F32) -> None:
+        """Auto-centring: move the box sideways towards the lateral centre of the legs: the area-weighted
+        median walker y of the foreground 0.05-0.6 m up (shins and knees; a pixel covers z² of surface,
+        so the leg nearer the camera does not outvote the other; a median, not the pixels' span, so a
+        walker part or clutter at the box edge is not chased).  Needs >= 300 such pixels."""
+        roi = self.config.roi
+        idx = np.flatnonzero(mask)
+        hh = h[idx]
+        sel = idx[(hh > 0.05) & (hh < 0.6)]
+        if sel.size < 300:
+            return
+        sel = sel[:: sel.size // 5000 + 1]  # a few thousand pixels give the median to a millimetre
+        order = np.argsort(yw[sel])
+        y = yw[sel][order]
+        cw = np.cumsum(np.square(z[sel][order], dtype=np.float64))
+        centre = float(y[min(int(np.searchsorted(cw, 0.5 * cw[-1])), y.size - 1)])
+        target = 0.0 if abs(centre) <= roi.center_deadband else centre
+        target = float(np.clip(target, -roi.center_max_shift, roi.center_max_shift))
+        self.roi_shift += roi.center_gain * (target - self.roi_shift)
