@@ -176,7 +176,7 @@ def cmd_replay(args: argparse.Namespace) -> int:
     node = WalkerNode("bag_replay")
     replayer = Replayer(node, str(path), rate=args.rate, loop=args.loop, publish_clock=not args.no_clock,
                         start_delay=args.start_delay, depth_topic=args.depth_topic, info_topic=args.info_topic,
-                        wait_subscribers=args.wait_subscribers)
+                        wait_subscribers=args.wait_subscribers, wait_info_subscribers=args.wait_info_subscribers)
     replayer.start()
     try:
         while rclpy.ok() and not replayer.finished.is_set():
@@ -279,6 +279,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--linger", type=float, default=1.0, help="seconds to keep publishing queues alive at the end")
     p.add_argument("--wait-subscribers", type=int, default=0, metavar="N",
                    help="first wait (up to 30 s) until N subscribers listen to the depth and CameraInfo topics")
+    p.add_argument("--wait-info-subscribers", type=int, default=None, metavar="M",
+                   help="with --wait-subscribers: wait for M (instead of N) on the CameraInfo topic")
     p.set_defaults(func=cmd_replay)
 
     for name, helptext in (("process", "run the whole pipeline offline on a recording, write results"),

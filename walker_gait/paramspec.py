@@ -47,11 +47,12 @@ NODE_PARAMS: dict[str, list[tuple[str, Any, str]]] = {
                                     "image's right (+x); `facing_forward` flips left/right"),
         ("use_rectified", True, "as depth_to_cloud.use_rectified (must match it)"),
         ("seed", 0, "seed of the particle filter's random generator"),
-        ("input_depth", 2, "queue depth of the three synchronised inputs when the tracker is slower than the "
-                           "camera: small = track the newest frames (low latency, more frames skipped), large = "
-                           "work through older queued frames (fewer skipped, more latency); measured on a 30 Hz "
-                           "replay of a 10 s 640x480 session on the 2-core machine: 1 / 2 / 5 → 57 / 79 / 93 % "
-                           "of frames tracked, median latency 49 / 82 / 171 ms"),
+        ("input_depth", 10, "queue depth of the three synchronised inputs: it absorbs bursts in which the tracker "
+                            "is slower than the camera; small = track the newest frames (low latency, frames "
+                            "skipped in every burst), large = work through the queued frames (none skipped, more "
+                            "latency, bounded by depth / rate); measured on a 30 Hz replay of a 10 s 640x480 "
+                            "session on the 2-core machine: 2 / 5 / 10 → 84 / 98 / 99-100 % of frames tracked, "
+                            "median latency 49 / 102 / 73 ms (host load varies between runs)"),
     ],
     "gait_analyzer": [
         ("summary_window", 10.0, "s, length of the rolling window of gait_summary/rolling"),

@@ -340,3 +340,36 @@ def test_leg_tracker_input_depth_sets_the_queue_and_is_validated(rclpy_context: 
         assert depths["/foreground/points"] == depths["/foreground/mask"] == depths["/floor_plane"] == 4
     finally:
         node.destroy_node()
+
+
+def test_replay_waits_for_the_wanted_subscribers_on_each_input_topic(rclpy_context: None, tmp_path: Any) -> None:
+    """Nothing is published until the depth topic has `wait_subscribers` and the CameraInfo topic
+    `wait_info_subscribers` matched subscriptions (volatile QoS loses what is published before)."""
+    import time
+
+    from walker_gait.ros.base import SENSOR_IN, WalkerNode, rclpy_type
+    from walker_gait.ros.replay import Replayer
+    from walker_gait.synth import SessionSpec, generate_session, write_session
+
+    session = generate_session(SessionSpec.preset("normal", duration=0.5, scale=0.25), rng=np.random.default_rng(3))
+    path = tmp_path / "s.mcap"
+    write_session(session, path, fmt="mcap", encoding="16UC1")
+    node = WalkerNode("bag_replay_wait_test")
+    listener = rclpy.create_node("replay_wait_listener")
+    replayer = Replayer(node, str(path), publish_clock=False, start_delay=0.0, wait_subscribers=1,
+                        wait_info_subscribers=2, wait_timeout=30.0)
+    try:
+        listener.create_subscription(rclpy_type(M.IMAGE), "depth/image_raw", lambda m: None, SENSOR_IN, raw=True)
+        listener.create_subscription(rclpy_type(M.CAMERA_INFO), "depth/camera_info", lambda m: None, SENSOR_IN,
+                                     raw=True)
+        replayer.start()
+        time.sleep(1.5)  # one subscriber on each topic: still waiting for the second CameraInfo one
+        assert replayer.published == 0 and not replayer.finished.is_set()
+        listener.create_subscription(rclpy_type(M.CAMERA_INFO), "depth/camera_info", lambda m: None, SENSOR_IN,
+                                     raw=True)
+        assert replayer.finished.wait(20.0)
+        assert replayer.published > 0
+    finally:
+        replayer.stop()
+        listener.destroy_node()
+        node.destroy_node()

@@ -113,7 +113,7 @@ def run_live(path: Path, *, rate: float = 1.0, timeout_s: float = 120.0, settle_
     env = dict(os.environ, PYTHONUNBUFFERED="1")
     graph = [sys.executable, "-m", "walker_gait.cli", "run", "--nodes",
              "depth_to_cloud,floor_segmentation,leg_tracker,gait_analyzer",
-             "--param", "depth_to_cloud.input_reliability=reliable"]
+             "--param", "floor_segmentation.input_reliability=reliable"]
     for p in params:
         graph += ["--param", p]
     run = subprocess.Popen(graph, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
@@ -133,7 +133,8 @@ def run_live(path: Path, *, rate: float = 1.0, timeout_s: float = 120.0, settle_
             if all(node.count_subscribers(t) >= n for t, n in links.items()):
                 break
         replay = subprocess.Popen([sys.executable, "-m", "walker_gait.cli", "replay", str(path), "--rate", str(rate),
-                                   "--start-delay", "0.5", "--wait-subscribers", str(links["/depth/image_raw"])],
+                                   "--start-delay", "0.5", "--wait-subscribers", str(links["/depth/image_raw"]),
+                                   "--wait-info-subscribers", str(links["/depth/camera_info"])],
                                   env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
                                   start_new_session=True)
         t0 = time.monotonic()

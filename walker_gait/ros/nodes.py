@@ -275,9 +275,9 @@ class LegTrackerNode(WalkerNode):
         self.pub_track = self.raw_publisher(M.LEG_TRACK, "leg_track", STREAM)
         self.pub_markers = self.raw_publisher(M.MARKER_ARRAY, "leg_markers", STREAM)
         self.raw_subscription(M.CAMERA_INFO, "depth/camera_info", self.on_info, SENSOR_IN)
-        # a short queue (default 2): a tracker slower than the camera works on recent frames instead of a
-        # queue of old ones (latency); depth 1 loses more frames to the three topics' exact-stamp sync
-        qos_in = stream_in(int(self.declare_parameter("input_depth", 2).value))
+        # the queue (default 10 frames = 1/3 s at 30 Hz) absorbs bursts in which the tracker is slower than the
+        # camera, so no frame is skipped while it keeps up on average; latency stays bounded by depth / rate
+        qos_in = stream_in(int(self.declare_parameter("input_depth", 10).value))
         self.raw_subscription(M.POINT_CLOUD2, "foreground/points", lambda m: self.on_part("points", m), qos_in)
         self.raw_subscription(M.IMAGE, "foreground/mask", lambda m: self.on_part("mask", m), qos_in)
         self.raw_subscription(M.FLOOR_PLANE, "floor_plane", lambda m: self.on_part("floor", m), qos_in)

@@ -24,7 +24,8 @@ class Replayer:
 
     def __init__(self, node: Any, path: str, *, rate: float = 1.0, loop: bool = False, publish_clock: bool = True,
                  start_delay: float = 1.0, remap_inputs: bool = True, depth_topic: str | None = None,
-                 info_topic: str | None = None, wait_subscribers: int = 0, wait_timeout: float = 30.0) -> None:
+                 info_topic: str | None = None, wait_subscribers: int = 0, wait_info_subscribers: int | None = None,
+                 wait_timeout: float = 30.0) -> None:
         from walker_gait.io.bags import open_recording
 
         self.node = node
@@ -45,6 +46,7 @@ class Replayer:
         self.clock_pub = node.create_publisher(rclpy_type(M.CLOCK), "/clock", 10) if publish_clock else None
         self.published = 0
         self.wait_subscribers = wait_subscribers
+        self.wait_info_subscribers = wait_subscribers if wait_info_subscribers is None else wait_info_subscribers
         self.wait_timeout = wait_timeout
         self.finished = threading.Event()
         self._stop = threading.Event()
@@ -71,17 +73,18 @@ class Replayer:
         return pub
 
     def _wait_for_subscribers(self) -> None:
-        """Create the input publishers and wait until ``wait_subscribers`` match them (volatile QoS
-        loses whatever is published before a subscriber is matched)."""
-        topics = [t for t in (self.recording.depth_topic, self.recording.info_topic) if t]
+        """Create the input publishers and wait until ``wait_subscribers`` match the depth topic's and
+        ``wait_info_subscribers`` the CameraInfo topic's (volatile QoS loses whatever is published before
+        a subscriber is matched)."""
+        wanted = {self.recording.depth_topic: self.wait_subscribers, self.recording.info_topic: self.wait_info_subscribers}
         types = {t.name: t.msgtype for t in self.recording.topics.values()}
-        pubs = [p for p in (self._publisher(t, types[t]) for t in topics) if p is not None]
+        pubs = [(p, n) for t, n in wanted.items() if t and (p := self._publisher(t, types[t])) is not None]
         deadline = time.monotonic() + self.wait_timeout
         while not self._stop.is_set() and time.monotonic() < deadline:
-            if all(p.get_subscription_count() >= self.wait_subscribers for p in pubs):
+            if all(p.get_subscription_count() >= n for p, n in pubs):
                 return
             time.sleep(0.05)
-        self.node.get_logger().warning(f"only {[p.get_subscription_count() for p in pubs]} subscribers after "
+        self.node.get_logger().warning(f"only {[p.get_subscription_count() for p, _ in pubs]} subscribers after "
                                        f"{self.wait_timeout:.0f} s; replaying anyway")
 
     def _run(self) -> None:
