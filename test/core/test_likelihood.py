@@ -235,6 +235,9 @@ def test_depth_costs_match_reference(frame) -> None:  # noqa: ANN001
         got = depth_costs(model.copy(), obs, params=params, overwrite=True, work=work)
         np.testing.assert_array_equal(got, ref)
         assert got.dtype == np.float32
+        # other dtypes / layouts take the plain (allocating) path: same costs
+        np.testing.assert_allclose(depth_costs(model.astype(np.float64), obs, params=params), ref, atol=1e-6)
+        np.testing.assert_array_equal(depth_costs(np.asfortranarray(model), obs, params=params), ref)
 
 
 def test_pairwise_distances_match_reference(frame) -> None:  # noqa: ANN001
