@@ -642,39 +642,42 @@ class GaitAnalyzer:
 
     # ------------------------------------------------------------------ state machine
 
+    def _window_start(self, k: int, x: FloatArray) -> int | None:
+        """First valid frame with finite ``x`` (per-frame series) in the rest window ending at k, or None
+        when the window has < 2 such frames or they span < half of it."""
+        c = self.config
+        j = int(np.searchsorted(self._t[:k], self._t[k] - c.rest_window_s - 1e-9))
+        idx = np.nonzero(self._valid[j : k + 1] & np.isfinite(x[j : k + 1]))[0] + j
+        if idx.size < 2 or self._t[k] - self._t[idx[0]] < 0.5 * c.rest_window_s:
+            return None
+        return int(idx[0])
+
     def _rest_speed(self, k: int, foot: int, point: int) -> float:
         """Mean horizontal speed (m/s) of a relative track over the rest window ending at k."""
-        c = self.config
-        t0 = self._t[k] - c.rest_window_s
-        j = int(np.searchsorted(self._t[:k], t0 - 1e-9))
-        idx = np.nonzero(self._valid[j : k + 1] & np.isfinite(self._track[j : k + 1, foot, point, 0]))[0] + j
-        if idx.size < 2 or self._t[k] - self._t[idx[0]] < 0.5 * c.rest_window_s:
+        i = self._window_start(k, self._track[:, foot, point, 0])
+        if i is None:
             return math.inf
-        d = self._track[k, foot, point] - self._track[idx[0], foot, point]
-        return float(np.hypot(*d) / (self._t[k] - self._t[idx[0]]))
+        d = self._track[k, foot, point] - self._track[i, foot, point]
+        return float(np.hypot(*d) / (self._t[k] - self._t[i]))
 
     def _advance_speed(self, k: int, foot: int, direction: FloatArray) -> float:
         """Mean speed (m/s) of the heel track along ``direction`` over the rest window (may be < 0)."""
-        c = self.config
-        j = int(np.searchsorted(self._t[:k], self._t[k] - c.rest_window_s - 1e-9))
-        idx = np.nonzero(self._valid[j : k + 1] & np.isfinite(self._track[j : k + 1, foot, _H, 0]))[0] + j
-        if idx.size < 2 or self._t[k] - self._t[idx[0]] < 0.5 * c.rest_window_s:
+        i = self._window_start(k, self._track[:, foot, _H, 0])
+        if i is None:
             return math.inf
-        d = self._track[k, foot, _H] - self._track[idx[0], foot, _H]
+        d = self._track[k, foot, _H] - self._track[i, foot, _H]
         lateral = abs(d[0] * direction[1] - d[1] * direction[0])
         along = float(d @ direction)
-        return max(along, lateral) / float(self._t[k] - self._t[idx[0]])
+        return max(along, lateral) / float(self._t[k] - self._t[i])
 
     def _walker_speed(self, k: int, foot: int, point: int, direction: FloatArray) -> float:
         """Speed (m/s) of a smoothed point along ``direction`` in the walker frame over the rest window
         (a planted point moves backwards at the walker's speed, a swinging one forwards)."""
-        c = self.config
-        j = int(np.searchsorted(self._t[:k], self._t[k] - c.rest_window_s - 1e-9))
-        idx = np.nonzero(self._valid[j : k + 1] & np.isfinite(self._smooth[j : k + 1, foot, point, 0]))[0] + j
-        if idx.size < 2 or self._t[k] - self._t[idx[0]] < 0.5 * c.rest_window_s:
+        i = self._window_start(k, self._smooth[:, foot, point, 0])
+        if i is None:
             return math.nan
-        d = self._smooth[k, foot, point, :2] - self._smooth[idx[0], foot, point, :2]
-        return float(d @ direction) / float(self._t[k] - self._t[idx[0]])
+        d = self._smooth[k, foot, point, :2] - self._smooth[i, foot, point, :2]
+        return float(d @ direction) / float(self._t[k] - self._t[i])
 
     def _progression_dir(self) -> FloatArray:
         """Unit line of progression in the walker frame (xy)."""

@@ -1222,8 +1222,9 @@ class Segmenter:
         if sel.size < 300:
             return
         sel = sel[:: sel.size // 5000 + 1]  # a few thousand pixels give the median to a millimetre
-        order = np.argsort(yw[sel])
-        y = yw[sel][order]
+        ys = yw[sel]
+        order = np.argsort(ys)
+        y = ys[order]
         cw = np.cumsum(np.square(z[sel][order], dtype=np.float64))
         centre = float(y[min(int(np.searchsorted(cw, 0.5 * cw[-1])), y.size - 1)])
         target = 0.0 if abs(centre) <= roi.center_deadband else centre
