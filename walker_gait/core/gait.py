@@ -29,7 +29,9 @@ Method in short (all geometry in the floor plane of the *walker* frame, see ``ty
    still planted (double support), so the step vector is the mean over the double-support
    frames of ``heel_B - (toe_A + o_A)``, where ``o_A`` is A's heel-minus-toe offset measured
    while A was flat on the floor.  Both terms are measured in the same frame at the same
-   instant, so the walker's own motion cancels exactly.  Step vectors are chained into a
+   instant, so the walker's own motion cancels exactly.  The component across the line of
+   progression (step width) comes from the ankles instead (``ankle + heel-ankle offset`` of each
+   foot, see :meth:`GaitAnalyzer._ankle_vector`): far less sensitive to foot yaw errors.  Step vectors are chained into a
    footprint map; the line of progression is the mean direction of the last
    ``progression_strides`` strides (fallback: walker -x, or the odometry heading).
 """
@@ -45,6 +47,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from walker_gait.core.types import (
+    ANKLE,
     HEEL,
     TOE,
     EventKind,
@@ -363,6 +366,7 @@ class GaitAnalyzer:
         self._q = np.zeros(cap)
         self._valid = np.zeros(cap, dtype=bool)
         self._raw = np.full((cap, 2, 2, 3), np.nan)  # walker frame [foot, heel/toe, xyz]
+        self._ankle = np.full((cap, 2, 3), np.nan)  # walker frame [foot, xyz]
         self._rot = np.zeros((cap, 3, 3))
         self._off = np.zeros((cap, 3))
         self._smooth = np.full((cap, 2, 2, 3), np.nan)
@@ -383,6 +387,8 @@ class GaitAnalyzer:
         self._o_sum = np.zeros((2, 2))
         self._o_n = np.zeros(2)
         self._o_best = [None, None]  # type: list[tuple[float, FloatArray] | None]
+        self._oa_sum = np.zeros((2, 2))  # heel - ankle offset (xy) of each flat foot, summed
+        self._oa_n = np.zeros(2)
         self._pending_hs: list[_PendingHS] = []
         self._pending_steps: list[_PendingStep] = []
         self._feet = [_FootHistory(), _FootHistory()]
@@ -501,7 +507,7 @@ class GaitAnalyzer:
 
     def _grow(self) -> None:
         cap = self._t.size * 2
-        for name in ("_t", "_q", "_valid", "_raw", "_rot", "_off", "_smooth", "_track", "_ground", "_weight"):
+        for name in ("_t", "_q", "_valid", "_raw", "_ankle", "_rot", "_off", "_smooth", "_track", "_ground", "_weight"):
             old = getattr(self, name)
             new = np.zeros((cap,) + old.shape[1:], dtype=old.dtype)
             if old.dtype.kind == "f" and name not in ("_t", "_q", "_rot", "_off", "_weight"):
@@ -518,7 +524,7 @@ class GaitAnalyzer:
             cut = min(cut, p.k_det - 200)
         if cut < 256:
             return
-        for name in ("_t", "_q", "_valid", "_raw", "_rot", "_off", "_smooth", "_track", "_ground", "_weight"):
+        for name in ("_t", "_q", "_valid", "_raw", "_ankle", "_rot", "_off", "_smooth", "_track", "_ground", "_weight"):
             arr = getattr(self, name)
             arr[: self._n - cut] = arr[cut : self._n]
         self._n -= cut
@@ -548,8 +554,10 @@ class GaitAnalyzer:
             self._off[k] = off
             cam = pts[:, [HEEL, TOE], :]
             self._raw[k] = cam @ rot.T + off
+            self._ankle[k] = pts[:, ANKLE, :] @ rot.T + off
         else:
             self._raw[k] = np.nan
+            self._ankle[k] = np.nan
 
     # ------------------------------------------------------------------ main loop
 
@@ -599,6 +607,8 @@ class GaitAnalyzer:
         self._o_sum[:] = 0
         self._o_n[:] = 0
         self._o_best = [None, None]
+        self._oa_sum[:] = 0
+        self._oa_n[:] = 0
 
     def _process(self, k: int) -> None:
         c = self.config
@@ -821,6 +831,10 @@ class GaitAnalyzer:
             if score >= 0.7:
                 self._o_sum[f] += off
                 self._o_n[f] += 1
+                oa = self._raw[k, f, _H, :2] - self._ankle[k, f, :2]
+                if np.all(np.isfinite(oa)):
+                    self._oa_sum[f] += oa
+                    self._oa_n[f] += 1
             best = self._o_best[f]
             if best is None or score > best[0]:
                 self._o_best[f] = (score, off.copy())
@@ -929,6 +943,23 @@ class GaitAnalyzer:
             self._pending_steps[-1].t_end = self._feet[b].to[-1]
         self._feet[a].hs.append(t_hs)
 
+    def _ankle_vector(self, idx: NDArray[np.intp], a: int, b: int) -> FloatArray | None:
+        """Heel-to-heel vector (xy) of feet ``a`` and ``b`` from their ankles over frames ``idx``.
+
+        Each heel = ankle + that foot's heel-minus-ankle offset measured while the foot was flat.  A foot's
+        yaw (toe-out) error moves its heel by ``lever x yaw error``; the heel-ankle lever (~5 cm) is a
+        fifth of the heel-toe one, so this is the better estimate of the lateral (step width) component,
+        and the ankle is the best-tracked point of the leg.  None when an offset is still unknown.
+        """
+        if self._oa_n[a] == 0 or self._oa_n[b] == 0:
+            return None
+        v = self._ankle[idx, a, :2] - self._ankle[idx, b, :2]
+        v = v[np.all(np.isfinite(v), axis=1)]
+        if v.shape[0] == 0:
+            return None
+        oa = self._oa_sum / self._oa_n[:, None]
+        return v.mean(axis=0) + oa[a] - oa[b]
+
     def _walker_yaw(self, t: float) -> float:
         if not self._odo:
             return 0.0
@@ -951,9 +982,11 @@ class GaitAnalyzer:
         if o is None:
             o = np.array([-0.0, 0.0])
             fallback = True
+        lateral = None  # the step vector's component across the line of progression, from the ankles
         if idx.size:
             v = self._raw[idx, a, _H, :2] - self._raw[idx, b, _T, :2] - o
             d = v.mean(axis=0)
+            lateral = self._ankle_vector(idx, a, b)
         else:  # no frame inside the double support (very short one): nearest frame
             near = self._valid_range(ps.t_hs - 0.1, ps.t_hs + 0.1)
             if near.size:
@@ -961,6 +994,11 @@ class GaitAnalyzer:
                 d = self._raw[kn, a, _H, :2] - self._raw[kn, b, _T, :2] - o
             else:  # tracking gap around the heel strike
                 d = np.full(2, np.nan)
+        if lateral is not None and np.all(np.isfinite(d)):
+            # across the line of progression, heel positions are taken from the ankles (see _ankle_vector)
+            n = self._progression_dir()
+            n = np.array([-n[1], n[0]])
+            d = d + float((lateral - d) @ n) * n
         if self._odo:
             d = _rot2(self._walker_yaw(ps.t_hs)) @ d
         # footprint chain
