@@ -259,3 +259,24 @@ def test_detection_ignores_low_clutter_beside_the_legs() -> None:
     true_hips = lm.hip_positions(state[None])[0]
     found_hips = lm.hip_positions(detected[None])[0]
     assert np.abs(found_hips[:, 1] - true_hips[:, 1]).max() < 0.03  # lateral positions of both legs
+
+
+def test_ankle_prior_adds_a_gaussian_on_ankle_flexion(seq) -> None:  # noqa: ANN001
+    """The prior term is -0.5 (flexion / sigma)^2 per evaluated leg, on top of an unchanged likelihood; off by
+    default in the paper preset."""
+    assert PAPER.ankle_prior_sigma == np.inf and np.isfinite(DEFAULT.ankle_prior_sigma)
+    f = seq.frames[0]
+    x = np.repeat(lm.neutral_state(right_hip_xy=(-0.85, -0.09), hip_dist=0.18)[None], 3, axis=0)
+    left, right = lm.L.leg(0), lm.L.leg(1)
+    x[1, left.start + lm.L.ANKLE_FLEX] = -0.5  # left leg on its toes
+    x[2, right.start + lm.L.ANKLE_FLEX] = 0.3
+    lls = {}
+    for sigma in (np.inf, 0.25):
+        tr = LegTracker(preset("default", ankle_prior_sigma=sigma), KINECT, rng=np.random.default_rng(0))
+        frame = tr._prepare(f.points, f.depth, f.floor)
+        for legs in ((0, 1), (0,)):
+            lls[sigma, legs] = tr._evaluate(frame, x, legs=legs, ref=None)
+    prior = lls[0.25, (0, 1)] - lls[np.inf, (0, 1)]
+    np.testing.assert_allclose(prior, [0.0, -0.5 * (0.5 / 0.25) ** 2, -0.5 * (0.3 / 0.25) ** 2], atol=1e-9)
+    left_only = lls[0.25, (0,)] - lls[np.inf, (0,)]
+    np.testing.assert_allclose(left_only, [0.0, -2.0, 0.0], atol=1e-9)  # the right leg is not evaluated

@@ -23,6 +23,9 @@ lives in the floor-aligned *body* frame of :mod:`walker_gait.core.leg_model`):
    weights.  With ``fine_2d_only`` (``default``) the coarse layers weigh with the cheap 3D cue
    alone and only each stage's final layer adds the rendered 2D cue (coarse-to-fine: the
    render is ~40 % of the cost);
+   Every weighting may add a Gaussian prior on ankle flexion (``ankle_prior_sigma``): from the
+   front, a flat foot and one plantar-flexed onto its toes explain the same shoe front (the heel
+   is hidden behind it), and without the prior the filter drifts into the tiptoe pose;
 5. final weights with the full likelihood; estimate = weighted mean (points and angles);
 6. hidden-part handling: per-segment visibility of the estimate by comparing its rendered
    depth with the observed depth, a VISIBLE/HIDDEN state machine per segment (seed 003
@@ -133,6 +136,8 @@ class TrackerConfig:
     sigma_hip: float = 0.05  # rad, hip flexion/abduction/rotation
     sigma_knee: float = 0.08  # rad
     sigma_ankle: float = 0.07  # rad
+    # pose prior
+    ankle_prior_sigma: float = math.inf  # rad, Gaussian prior on ankle flexion around neutral (inf = none, paper)
     # track management
     min_fg_points: int = 60  # fewer foreground points = no user
     coast_frames: int = 0  # frames a track is held (DEGRADED, confidence 0) through a foreground dropout before it is dropped (0 = at once)
@@ -209,6 +214,7 @@ DEFAULT = TrackerConfig(
     coast_frames=15,
     fine_2d_only=True,
     sigma_root=0.008,
+    ankle_prior_sigma=0.2,
 )
 """Real-time preset: partitioned annealed sampling with 96 particles; coarse layers weighted by the 3D
 cue, final layers by the combined cue with a 64x48 2D cue."""
@@ -434,6 +440,12 @@ class LegTracker:
             kin = lm.forward_kinematics(states)
         seg, rad = self._cam_segments(frame, kin, legs)
         total = np.zeros(states.shape[0])
+        if math.isfinite(cfg.ankle_prior_sigma):
+            # seen from the front, a flat foot and a plantar-flexed one standing on its toes explain the
+            # same shoe front (the heel is hidden behind it); the prior prefers the common pose
+            for leg in legs:
+                a = states[:, L.leg(leg)][:, L.ANKLE_FLEX] / cfg.ankle_prior_sigma
+                total -= 0.5 * a * a
         if cfg.cue in ("3d", "combined"):
             total += log_likelihood_3d(
                 seg,
