@@ -32,6 +32,7 @@ from walker_gait.core.gait import (
     GaitInputError,
     GaitSummaryData,
     _hinge_time,
+    _rot2,
     summarize_steps,
 )
 from walker_gait.core.types import HEEL, TOE, EventKind, FloorPlane, LegPose, Side, Step, TrackStatus
@@ -149,9 +150,7 @@ def test_step_width_survives_foot_yaw_errors() -> None:
         w = pts @ rot.T + off
         for f in range(2):
             yaw = math.radians(12.0) * math.sin(2 * math.pi * (p.stamp / 1.7 + 0.37 * f))
-            c, s = math.cos(yaw), math.sin(yaw)
-            v = w[f, TOE, :2] - w[f, HEEL, :2]
-            w[f, TOE, :2] = w[f, HEEL, :2] + np.array([c * v[0] - s * v[1], s * v[0] + c * v[1]])
+            w[f, TOE, :2] = w[f, HEEL, :2] + _rot2(yaw) @ (w[f, TOE, :2] - w[f, HEEL, :2])
         poses.append(replace(p, points=(w - off) @ rot))
     ga = run_analyzer(poses, sim.floor)
     r = evaluate_gait(sim.steps, sim.events, ga, fps=spec.fps)

@@ -358,6 +358,9 @@ class GaitAnalyzer:
     their interpolated true times.
     """
 
+    _BUFFERS = ("_t", "_q", "_valid", "_raw", "_ankle", "_rot", "_off", "_smooth", "_track", "_ground", "_weight")
+    """Per-frame arrays (first axis = buffer index), grown and trimmed together."""
+
     def __init__(self, config: GaitConfig | None = None) -> None:
         self.config = config or GaitConfig()
         cap = 1024
@@ -507,7 +510,7 @@ class GaitAnalyzer:
 
     def _grow(self) -> None:
         cap = self._t.size * 2
-        for name in ("_t", "_q", "_valid", "_raw", "_ankle", "_rot", "_off", "_smooth", "_track", "_ground", "_weight"):
+        for name in self._BUFFERS:
             old = getattr(self, name)
             new = np.zeros((cap,) + old.shape[1:], dtype=old.dtype)
             if old.dtype.kind == "f" and name not in ("_t", "_q", "_rot", "_off", "_weight"):
@@ -524,7 +527,7 @@ class GaitAnalyzer:
             cut = min(cut, p.k_det - 200)
         if cut < 256:
             return
-        for name in ("_t", "_q", "_valid", "_raw", "_ankle", "_rot", "_off", "_smooth", "_track", "_ground", "_weight"):
+        for name in self._BUFFERS:
             arr = getattr(self, name)
             arr[: self._n - cut] = arr[cut : self._n]
         self._n -= cut
