@@ -262,9 +262,9 @@ def test_detection_ignores_low_clutter_beside_the_legs() -> None:
 
 
 def test_ankle_prior_adds_a_gaussian_on_ankle_flexion(seq) -> None:  # noqa: ANN001
-    """The prior term is -0.5 (flexion / sigma)^2 per evaluated leg, on top of an unchanged likelihood; off by
-    default in the paper preset."""
-    assert PAPER.ankle_prior_sigma == np.inf and np.isfinite(DEFAULT.ankle_prior_sigma)
+    """The prior term is -0.5 (flexion / sigma)^2 per evaluated leg, on top of an unchanged likelihood; off
+    in the paper preset (the default preset uses the foot-pitch prior instead)."""
+    assert PAPER.ankle_prior_sigma == np.inf
     f = seq.frames[0]
     x = np.repeat(lm.neutral_state(right_hip_xy=(-0.85, -0.09), hip_dist=0.18)[None], 3, axis=0)
     left, right = lm.L.leg(0), lm.L.leg(1)
@@ -280,3 +280,28 @@ def test_ankle_prior_adds_a_gaussian_on_ankle_flexion(seq) -> None:  # noqa: ANN
     np.testing.assert_allclose(prior, [0.0, -0.5 * (0.5 / 0.25) ** 2, -0.5 * (0.3 / 0.25) ** 2], atol=1e-9)
     left_only = lls[0.25, (0,)] - lls[np.inf, (0,)]
     np.testing.assert_allclose(left_only, [0.0, -2.0, 0.0], atol=1e-9)  # the right leg is not evaluated
+
+
+def test_foot_pitch_prior_adds_a_gaussian_on_the_pitch_of_each_foot(seq) -> None:  # noqa: ANN001
+    """The prior term is -0.5 (pitch / sigma)^2 per evaluated foot, pitch = the heel-to-toe line's angle to the
+    floor (so hip, knee and ankle flexion all move it); off in the paper preset."""
+    assert PAPER.foot_pitch_prior_sigma == np.inf and np.isfinite(DEFAULT.foot_pitch_prior_sigma)
+    f = seq.frames[0]
+    x = np.repeat(lm.neutral_state(right_hip_xy=(-0.85, -0.09), hip_dist=0.18)[None], 3, axis=0)
+    left, right = lm.L.leg(0), lm.L.leg(1)
+    x[1, left.start + lm.L.ANKLE_FLEX] = -0.4  # left foot 0.4 rad toes-down ...
+    x[2, right.start + lm.L.HIP_FLEX] = 0.3  # ... right thigh forward, knee bent back by as much: calf vertical,
+    x[2, right.start + lm.L.KNEE_FLEX] = 0.3  # foot flat: no pitch, whatever the joint angles
+    x[2, left.start + lm.L.HIP_FLEX] = -0.2  # left leg behind, ankle neutral: foot pitched 0.2 rad toes-down
+    x = lm.apply_floor_contact(x)
+    lls = {}
+    for sigma in (np.inf, 0.25):
+        tr = LegTracker(preset("default", ankle_prior_sigma=np.inf, foot_pitch_prior_sigma=sigma), KINECT,
+                        rng=np.random.default_rng(0))
+        frame = tr._prepare(f.points, f.depth, f.floor)
+        for legs in ((0, 1), (1,)):
+            lls[sigma, legs] = tr._evaluate(frame, x, legs=legs, ref=None)
+    prior = lls[0.25, (0, 1)] - lls[np.inf, (0, 1)]
+    np.testing.assert_allclose(prior, [0.0, -0.5 * (0.4 / 0.25) ** 2, -0.5 * (0.2 / 0.25) ** 2], atol=1e-9)
+    right_only = lls[0.25, (1,)] - lls[np.inf, (1,)]
+    np.testing.assert_allclose(right_only, [0.0, 0.0, 0.0], atol=1e-9)  # the left foot is not evaluated

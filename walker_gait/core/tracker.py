@@ -23,9 +23,12 @@ lives in the floor-aligned *body* frame of :mod:`walker_gait.core.leg_model`):
    weights.  With ``fine_2d_only`` (``default``) the coarse layers weigh with the cheap 3D cue
    alone and only each stage's final layer adds the rendered 2D cue (coarse-to-fine: the
    render is ~40 % of the cost);
-   Every weighting may add a Gaussian prior on ankle flexion (``ankle_prior_sigma``): from the
-   front, a flat foot and one plantar-flexed onto its toes explain the same shoe front (the heel
-   is hidden behind it), and without the prior the filter drifts into the tiptoe pose;
+   Every weighting may add pose priors: from the front, a flat foot and one pitched onto its toes
+   explain the same shoe front (the heel is hidden behind it), and without a prior the filter
+   drifts into the tiptoe pose.  ``foot_pitch_prior_sigma`` (``default``) is a Gaussian on each
+   foot's pitch against the floor (heel-to-toe line), ``ankle_prior_sigma`` one on ankle flexion
+   around neutral; the pitch prior also holds a planted foot flat when the shank leans forward
+   or back over it (late stance: hip extended, ankle dorsiflexed), where the ankle prior tilts it;
 5. final weights with the full likelihood; estimate = weighted mean (points and angles);
 6. hidden-part handling: per-segment visibility of the estimate by comparing its rendered
    depth with the observed depth, a VISIBLE/HIDDEN state machine per segment (seed 003
@@ -138,6 +141,7 @@ class TrackerConfig:
     sigma_ankle: float = 0.07  # rad
     # pose prior
     ankle_prior_sigma: float = math.inf  # rad, Gaussian prior on ankle flexion around neutral (inf = none, paper)
+    foot_pitch_prior_sigma: float = math.inf  # rad, Gaussian prior on each foot's pitch against the floor (inf = none, paper)
     # track management
     min_fg_points: int = 60  # fewer foreground points = no user
     coast_frames: int = 0  # frames a track is held (DEGRADED, confidence 0) through a foreground dropout before it is dropped (0 = at once)
@@ -214,7 +218,7 @@ DEFAULT = TrackerConfig(
     coast_frames=15,
     fine_2d_only=True,
     sigma_root=0.008,
-    ankle_prior_sigma=0.2,
+    foot_pitch_prior_sigma=0.3,
 )
 """Real-time preset: partitioned annealed sampling with 96 particles; coarse layers weighted by the 3D
 cue, final layers by the combined cue with a 64x48 2D cue."""
@@ -445,6 +449,11 @@ class LegTracker:
             # same shoe front (the heel is hidden behind it); the prior prefers the common pose
             for leg in legs:
                 a = states[:, L.leg(leg)][:, L.ANKLE_FLEX] / cfg.ankle_prior_sigma
+                total -= 0.5 * a * a
+        if math.isfinite(cfg.foot_pitch_prior_sigma):
+            for leg in legs:
+                v = kin.points[:, leg, 4] - kin.points[:, leg, 3]  # heel -> toe, body frame (z up)
+                a = np.arctan2(v[:, 2], np.hypot(v[:, 0], v[:, 1])) / cfg.foot_pitch_prior_sigma
                 total -= 0.5 * a * a
         if cfg.cue in ("3d", "combined"):
             total += log_likelihood_3d(
