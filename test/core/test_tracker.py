@@ -261,24 +261,33 @@ def test_detection_ignores_low_clutter_beside_the_legs() -> None:
     assert np.abs(found_hips[:, 1] - true_hips[:, 1]).max() < 0.03  # lateral positions of both legs
 
 
+def _prior_term(seq, x: np.ndarray, legs: tuple[int, ...], **sigmas: float) -> np.ndarray:  # noqa: ANN001
+    """Log likelihood of states ``x`` (``legs`` evaluated) with the pose priors ``sigmas`` minus that without priors."""
+    f = seq.frames[0]
+
+    def loglik(**priors: float) -> np.ndarray:
+        cfg = preset("default", **{"ankle_prior_sigma": np.inf, "foot_pitch_prior_sigma": np.inf, **priors})
+        tr = LegTracker(cfg, KINECT, rng=np.random.default_rng(0))
+        return tr._evaluate(tr._prepare(f.points, f.depth, f.floor), x, legs=legs, ref=None)
+
+    return loglik(**sigmas) - loglik()
+
+
+def _standing(n: int) -> np.ndarray:
+    return np.repeat(lm.neutral_state(right_hip_xy=(-0.85, -0.09), hip_dist=0.18)[None], n, axis=0)
+
+
 def test_ankle_prior_adds_a_gaussian_on_ankle_flexion(seq) -> None:  # noqa: ANN001
     """The prior term is -0.5 (flexion / sigma)^2 per evaluated leg, on top of an unchanged likelihood; off
     in the paper preset (the default preset uses the foot-pitch prior instead)."""
     assert PAPER.ankle_prior_sigma == np.inf
-    f = seq.frames[0]
-    x = np.repeat(lm.neutral_state(right_hip_xy=(-0.85, -0.09), hip_dist=0.18)[None], 3, axis=0)
+    x = _standing(3)
     left, right = lm.L.leg(0), lm.L.leg(1)
     x[1, left.start + lm.L.ANKLE_FLEX] = -0.5  # left leg on its toes
     x[2, right.start + lm.L.ANKLE_FLEX] = 0.3
-    lls = {}
-    for sigma in (np.inf, 0.25):
-        tr = LegTracker(preset("default", ankle_prior_sigma=sigma), KINECT, rng=np.random.default_rng(0))
-        frame = tr._prepare(f.points, f.depth, f.floor)
-        for legs in ((0, 1), (0,)):
-            lls[sigma, legs] = tr._evaluate(frame, x, legs=legs, ref=None)
-    prior = lls[0.25, (0, 1)] - lls[np.inf, (0, 1)]
+    prior = _prior_term(seq, x, (0, 1), ankle_prior_sigma=0.25)
     np.testing.assert_allclose(prior, [0.0, -0.5 * (0.5 / 0.25) ** 2, -0.5 * (0.3 / 0.25) ** 2], atol=1e-9)
-    left_only = lls[0.25, (0,)] - lls[np.inf, (0,)]
+    left_only = _prior_term(seq, x, (0,), ankle_prior_sigma=0.25)
     np.testing.assert_allclose(left_only, [0.0, -2.0, 0.0], atol=1e-9)  # the right leg is not evaluated
 
 
@@ -286,22 +295,14 @@ def test_foot_pitch_prior_adds_a_gaussian_on_the_pitch_of_each_foot(seq) -> None
     """The prior term is -0.5 (pitch / sigma)^2 per evaluated foot, pitch = the heel-to-toe line's angle to the
     floor (so hip, knee and ankle flexion all move it); off in the paper preset."""
     assert PAPER.foot_pitch_prior_sigma == np.inf and np.isfinite(DEFAULT.foot_pitch_prior_sigma)
-    f = seq.frames[0]
-    x = np.repeat(lm.neutral_state(right_hip_xy=(-0.85, -0.09), hip_dist=0.18)[None], 3, axis=0)
+    x = _standing(3)
     left, right = lm.L.leg(0), lm.L.leg(1)
     x[1, left.start + lm.L.ANKLE_FLEX] = -0.4  # left foot 0.4 rad toes-down ...
     x[2, right.start + lm.L.HIP_FLEX] = 0.3  # ... right thigh forward, knee bent back by as much: calf vertical,
     x[2, right.start + lm.L.KNEE_FLEX] = 0.3  # foot flat: no pitch, whatever the joint angles
     x[2, left.start + lm.L.HIP_FLEX] = -0.2  # left leg behind, ankle neutral: foot pitched 0.2 rad toes-down
     x = lm.apply_floor_contact(x)
-    lls = {}
-    for sigma in (np.inf, 0.25):
-        tr = LegTracker(preset("default", ankle_prior_sigma=np.inf, foot_pitch_prior_sigma=sigma), KINECT,
-                        rng=np.random.default_rng(0))
-        frame = tr._prepare(f.points, f.depth, f.floor)
-        for legs in ((0, 1), (1,)):
-            lls[sigma, legs] = tr._evaluate(frame, x, legs=legs, ref=None)
-    prior = lls[0.25, (0, 1)] - lls[np.inf, (0, 1)]
+    prior = _prior_term(seq, x, (0, 1), foot_pitch_prior_sigma=0.25)
     np.testing.assert_allclose(prior, [0.0, -0.5 * (0.4 / 0.25) ** 2, -0.5 * (0.2 / 0.25) ** 2], atol=1e-9)
-    right_only = lls[0.25, (1,)] - lls[np.inf, (1,)]
+    right_only = _prior_term(seq, x, (1,), foot_pitch_prior_sigma=0.25)
     np.testing.assert_allclose(right_only, [0.0, 0.0, 0.0], atol=1e-9)  # the left foot is not evaluated
