@@ -77,7 +77,9 @@ from walker_gait.core.likelihood import (
 )
 from walker_gait.core.resampling import effective_sample_size, normalise_log_weights, resample
 from walker_gait.core.types import (
+    HEEL,
     JOINT_NAMES,
+    TOE,
     CameraIntrinsics,
     FloorPlane,
     LegPose,
@@ -452,7 +454,7 @@ class LegTracker:
                 total -= 0.5 * a * a
         if math.isfinite(cfg.foot_pitch_prior_sigma):
             for leg in legs:
-                v = kin.points[:, leg, 4] - kin.points[:, leg, 3]  # heel -> toe, body frame (z up)
+                v = kin.points[:, leg, TOE] - kin.points[:, leg, HEEL]  # heel -> toe, body frame (z up)
                 a = np.arctan2(v[:, 2], np.hypot(v[:, 0], v[:, 1])) / cfg.foot_pitch_prior_sigma
                 total -= 0.5 * a * a
         if cfg.cue in ("3d", "combined"):
