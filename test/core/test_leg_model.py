@@ -214,8 +214,10 @@ def test_forward_kinematics_matches_per_particle_reference() -> None:
 def test_sole_heights_and_collisions_match_per_pair_reference() -> None:
     x = _box_states(40, seed=12)
     kin = lm.forward_kinematics(x)
-    # sole corners: both ends of the foot axis +- radius along the lateral axis
-    z = kin.segments[:, :, 2, :, 2, None] + kin.radii[:, :, 2, :, None] * kin.foot_lateral[:, :, None, None, 2] * [-1, 1]
+    # sole corners: both ends of the foot axis +- the sole's half-width (FOOT_HALF_WIDTH * foot length) along
+    # the lateral axis
+    half = (x[:, L.LEN_FOOT] * lm.FOOT_HALF_WIDTH)[:, None, None, None]
+    z = kin.segments[:, :, 2, :, 2, None] + half * kin.foot_lateral[:, :, None, None, 2] * [-1, 1]
     np.testing.assert_allclose(lm.sole_heights(kin), z.min(axis=(2, 3)), rtol=0, atol=1e-12)
     mean_r = kin.radii.mean(axis=-1)
     expected = np.zeros(len(x), dtype=bool)

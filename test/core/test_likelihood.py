@@ -18,6 +18,7 @@ from walker_gait.core.likelihood import (
     _pairwise_distances,
     combine_log_likelihoods,
     depth_costs,
+    elliptic_section_radii,
     log_likelihood_2d,
     log_likelihood_3d,
     render_depth,
@@ -45,7 +46,8 @@ def _cam(states: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 @pytest.fixture(scope="module")
 def frame():  # noqa: ANN201
-    return render_frame(_truth(), intrinsics=KINECT, floor=FLOOR, mounting="facing_user", rng=np.random.default_rng(0), noise_m=0.0)
+    return render_frame(_truth(), intrinsics=KINECT, floor=FLOOR, mounting="facing_user", rng=np.random.default_rng(0), noise_m=0.0,
+                        elliptic_foot=False)  # the circular sections that `_cam` gives the cues (the default)
 
 
 def _perturbed() -> np.ndarray:
@@ -103,6 +105,56 @@ def test_renderer_cylinder_front_depth() -> None:
     assert img[240, 320] == pytest.approx(0.95, abs=1e-3)
     width_px = np.isfinite(img[240]).sum()
     assert width_px == pytest.approx(2 * 0.05 * KINECT.fx / 1.0, abs=3)
+
+
+def test_renderer_depth_radii_set_how_far_the_surface_stands_out() -> None:
+    # the same vertical capsule, 5 cm wide in the image but standing out only 2 cm towards the camera
+    seg = np.array([[[[0.0, -0.2, 1.0], [0.0, 0.2, 1.0]]]])
+    rad = np.array([[[0.05, 0.05]]])
+    cue = CueImage.from_depth(np.full((KINECT.height, KINECT.width), np.nan, np.float32), intrinsics=KINECT,
+                              stride=1, floor=FLOOR)
+    bbox = (0, KINECT.height, 0, KINECT.width)
+    img = render_depth(seg, rad, cue=cue, bbox=bbox, depth_radii=np.array([[[0.02, 0.02]]])).reshape(KINECT.height, KINECT.width)
+    assert img[240, 320] == pytest.approx(0.98, abs=1e-3)
+    assert np.isfinite(img[240]).sum() == pytest.approx(2 * 0.05 * KINECT.fx / 1.0, abs=3)  # silhouette unchanged
+    # tapered along the axis: 1 cm at the top end, 3 cm at the bottom end
+    img = render_depth(seg, rad, cue=cue, bbox=bbox, depth_radii=np.array([[[0.01, 0.03]]])).reshape(KINECT.height, KINECT.width)
+    assert img[240, 320] == pytest.approx(0.98, abs=1e-3)
+    top, bottom = (int(round(KINECT.fy * y / 1.0 + KINECT.cy)) for y in (-0.15, 0.15))
+    assert img[top, 320] == pytest.approx(1.0 - 0.0125, abs=1e-3)
+    assert img[bottom, 320] == pytest.approx(1.0 - 0.0275, abs=1e-3)
+    # depth radii equal to the radii: exactly the circular renderer
+    np.testing.assert_array_equal(render_depth(seg, rad, cue=cue, bbox=bbox, depth_radii=rad.copy()),
+                                  render_depth(seg, rad, cue=cue, bbox=bbox))
+
+
+def test_elliptic_section_radii() -> None:
+    # horizontal segment across the image at 1 m; section 2 cm (half-width) x 5 cm (height)
+    seg = np.array([[[[-0.1, 0.0, 1.0], [0.1, 0.0, 1.0]]]])
+    heights, widths = np.full((1, 1, 2), 0.05), np.full((1, 1, 2), 0.02)
+    # half-width axis along the line of sight: the image shows the height, the width faces the camera
+    sil, toward = elliptic_section_radii(seg, np.array([[[0.0, 0.0, 1.0]]]), heights, widths)
+    np.testing.assert_allclose(sil, 0.05, atol=1e-3)
+    np.testing.assert_allclose(toward, 0.02, atol=1e-3)
+    # half-width axis across the image (vertical): the other way round
+    sil, toward = elliptic_section_radii(seg, np.array([[[0.0, 1.0, 0.0]]]), heights, widths)
+    np.testing.assert_allclose(sil, 0.02, atol=1e-3)
+    np.testing.assert_allclose(toward, 0.05, atol=1e-3)
+    # at 45 degrees: the ellipse's support in each direction, sqrt((a^2 + b^2) / 2)
+    c = np.sqrt(0.5)
+    sil, toward = elliptic_section_radii(seg, np.array([[[0.0, c, c]]]), heights, widths)
+    np.testing.assert_allclose(sil, np.hypot(0.02, 0.05) * c, atol=1e-3)
+    np.testing.assert_allclose(toward, np.hypot(0.02, 0.05) * c, atol=1e-3)
+    # a circular section has its radius everywhere, whatever the segment's direction
+    rng = np.random.default_rng(3)
+    seg = rng.normal(0.0, 0.2, (4, 3, 2, 3)) + np.array([0.0, 0.0, 1.5])
+    axis = seg[:, :, 1] - seg[:, :, 0]
+    lateral = np.cross(axis, rng.normal(size=(4, 3, 3)))
+    lateral /= np.linalg.norm(lateral, axis=-1, keepdims=True)
+    r = rng.uniform(0.02, 0.08, (4, 3, 2))
+    sil, toward = elliptic_section_radii(seg, lateral, r, r)
+    np.testing.assert_allclose(sil, r, rtol=1e-9)
+    np.testing.assert_allclose(toward, r, rtol=1e-9)
 
 
 def test_render_z_buffer_equals_min_of_parts(frame) -> None:  # noqa: ANN001

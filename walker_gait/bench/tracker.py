@@ -23,7 +23,7 @@ from numpy.typing import NDArray
 from walker_gait.core import leg_model as lm
 from walker_gait.core.leg_model import BodyFrame, StateLayout
 from walker_gait.core.likelihood import CueImage, project_bbox, render_depth
-from walker_gait.core.tracker import LegTracker, TrackStatus, preset
+from walker_gait.core.tracker import LegTracker, TrackStatus, camera_segments, preset
 from walker_gait.core.types import LEG_POINTS, CameraIntrinsics, FloorPlane
 
 FloatArray = NDArray[np.float64]
@@ -83,25 +83,28 @@ def render_frame(
     noise_m: float = 0.002,
     stamp: float = 0.0,
     drop_leg: int | None = None,
+    elliptic_foot: bool = False,
 ) -> Frame:
-    """Render the model ``state`` (body frame) into a foreground depth image + points."""
+    """Render the model ``state`` (body frame) into a foreground depth image + points.
+
+    ``elliptic_foot``: feet with the narrow elliptical cross-section of the ``default`` tracker
+    instead of the seed's half-cylinder (the default, which keeps these frames the paper's model)."""
     h, w = intrinsics.height, intrinsics.width
     depth = np.full((h, w), np.nan, np.float32)
     gt = None
     if state is not None:
         body = BodyFrame.from_floor(floor, mounting=mounting)
         kin = lm.forward_kinematics(state[None])
-        seg = body.to_camera(kin.segments).reshape(1, 6, 2, 3)
-        rad = kin.radii.reshape(1, 6, 2)
+        seg, rad, sil = camera_segments(kin, body, elliptic_foot=elliptic_foot)
         gt = body.to_camera(kin.points[0])
         cue = CueImage.from_depth(depth, intrinsics=intrinsics, stride=1, floor=floor)
         keep = [j for j in range(6) if drop_leg is None or j // 3 != drop_leg]
-        seg, rad = seg[:, keep], rad[:, keep]
-        bbox = project_bbox(seg, rad, intrinsics=intrinsics)
+        seg, rad, sil = seg[:, keep], rad[:, keep], sil[:, keep]
+        bbox = project_bbox(seg, np.maximum(rad, sil), intrinsics=intrinsics)
         v0, v1, u0, u1 = bbox
         if v1 > v0 and u1 > u0:
             clip = np.array([j % 3 == 2 for j in keep])
-            z = render_depth(seg, rad, cue=cue, bbox=bbox, floor_clip=clip)[0].reshape(v1 - v0, u1 - u0)
+            z = render_depth(seg, sil, cue=cue, bbox=bbox, floor_clip=clip, depth_radii=rad)[0].reshape(v1 - v0, u1 - u0)
             z = np.where(np.isfinite(z), z + rng.normal(0.0, noise_m, z.shape), np.nan)
             depth[v0:v1, u0:u1] = z.astype(np.float32)
     vv, uu = np.nonzero(np.isfinite(depth))

@@ -40,7 +40,9 @@ Geometry
   on the heel-toe line, radii ``FOOT_HEEL_RADIUS * len_foot`` →
   ``FOOT_TOE_RADIUS * len_foot``, its ends inset by those radii (``FOOT_CAP_INSET``) so
   that the rounded ends of the rendered capsule stop at the heel and toe points; the ankle joint centre is ``ANKLE_HEIGHT *
-  len_foot`` above the sole and ``HEEL_BACK * len_foot`` in front of the heel.
+  len_foot`` above the sole and ``HEEL_BACK * len_foot`` in front of the heel.  The sole
+  (floor contact) is ``2 * FOOT_HALF_WIDTH * len_foot`` wide; the tracker's ``elliptic_foot``
+  option narrows the foot's cross-section to the same width (a half-ellipse as tall as the radius).
 * output points (``LEG_POINTS``): hip/knee/ankle joint centres; heel = the
   posterior-most point of the foot at sole level (heel end of the sole axis);
   toe = anterior tip at sole level (toe end of the sole axis).
@@ -81,6 +83,12 @@ FOOT_TOE_RADIUS = 0.15
 half the forefoot width of a shoe, ~9-10 cm, and about the height of its toe box; a thinner toe
 end leaves the front of the shoe, which is what the camera sees, unexplained and pulls the
 model's foot forward and its heel up)."""
+FOOT_HALF_WIDTH = 0.155
+"""Half-width of the foot, fraction of foot length (~4.2 cm for a 27 cm shoe: shoes are ~7 cm wide at
+the heel and ~9-10 cm at the ball, while the heel counter stands ~10 cm tall).  The sole spans
+this much either side of the heel-toe line (floor contact, :func:`sole_heights`); with the
+tracker's ``elliptic_foot`` the likelihood also gives the foot an elliptical cross-section this wide
+and as tall as the radius (``FOOT_HEEL_RADIUS`` / ``FOOT_TOE_RADIUS``)."""
 ANKLE_HEIGHT = 0.35
 """Ankle joint centre height above the sole, fraction of foot length (adult anthropometry:
 ankle centre ~9.5 cm above the sole of a 27 cm shoe)."""
@@ -299,8 +307,9 @@ class _Chain:
 
     def sole_heights(self) -> FloatArray:
         """``(2, P)`` lowest sole height of each foot (see :func:`sole_heights`)."""
-        z, r = self.ends[:, 2], self.radii[:, 0, 2]
-        return _sole_heights(z[_FOOT_START], z[_FOOT_END], r[:, 0], r[:, 1], self.lateral[2])
+        z = self.ends[:, 2]
+        half_width = self.radii[:, :, 2, 0].T * (FOOT_HALF_WIDTH / FOOT_HEEL_RADIUS)  # (2, P)
+        return _sole_heights(z[_FOOT_START], z[_FOOT_END], half_width, self.lateral[2])
 
 
 def _turn_axes(axes: list[FloatArray], i: int, j: int, c: FloatArray, s: FloatArray) -> None:
@@ -417,28 +426,27 @@ def joint_angles(state: FloatArray) -> FloatArray:
     return np.asarray(state, dtype=np.float64)[..., L.ANGLES].copy()
 
 
-def _sole_heights(
-    z_heel: FloatArray, z_toe: FloatArray, r_heel: FloatArray, r_toe: FloatArray, lateral_z: FloatArray
-) -> FloatArray:
-    """Lowest sole corner height from the foot axis end heights, end radii and lateral axis z (broadcast)."""
-    low_heel = r_heel * lateral_z
-    np.abs(low_heel, out=low_heel)
-    np.subtract(z_heel, low_heel, out=low_heel)
-    low_toe = r_toe * lateral_z
-    np.abs(low_toe, out=low_toe)
-    np.subtract(z_toe, low_toe, out=low_toe)
-    return np.minimum(low_heel, low_toe, out=low_heel)
+def _sole_heights(z_heel: FloatArray, z_toe: FloatArray, half_width: FloatArray, lateral_z: FloatArray) -> FloatArray:
+    """Lowest sole corner height from the foot axis end heights, the sole's half-width and the lateral
+    axis z (broadcast)."""
+    drop = half_width * lateral_z
+    np.abs(drop, out=drop)
+    low = np.minimum(z_heel, z_toe)
+    low -= drop
+    return low
 
 
 def sole_heights(kin: Kinematics) -> FloatArray:
     """``(P, 2)`` lowest height (m, body z) of each foot's sole (its 4 corner points).
 
-    For the half-cylinder the sole is the flat base spanning ``±radius`` laterally
-    around the heel-toe axis, so the corners are heel/toe ± radius * lateral; the lower
-    corner of each end is at ``z - |radius * lateral_z|``.
+    The sole is the flat base of the foot, spanning ``±FOOT_HALF_WIDTH * len_foot`` laterally
+    around the heel-toe axis (a shoe's width, whatever the section used for the likelihood), so
+    its corners are heel/toe ± half-width * lateral; the lowest corner is at
+    ``min(z_heel, z_toe) - |half-width * lateral_z|``.
     """
-    z, r = kin.segments[:, :, 2, :, 2], kin.radii[:, :, 2]
-    return _sole_heights(z[..., 0], z[..., 1], r[..., 0], r[..., 1], kin.foot_lateral[:, :, 2])
+    z = kin.segments[:, :, 2, :, 2]
+    half_width = kin.radii[:, :, 2, 0] * (FOOT_HALF_WIDTH / FOOT_HEEL_RADIUS)
+    return _sole_heights(z[..., 0], z[..., 1], half_width, kin.foot_lateral[:, :, 2])
 
 
 def _dot3(u: FloatArray, v: FloatArray) -> FloatArray:

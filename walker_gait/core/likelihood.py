@@ -107,6 +107,36 @@ def skeleton_points(
     return pts, w
 
 
+def elliptic_section_radii(
+    segments: FloatArray, lateral: FloatArray, heights: FloatArray, half_widths: FloatArray
+) -> tuple[FloatArray, FloatArray]:
+    """View-dependent radii of segments with an elliptical cross-section, as seen from the camera.
+
+    ``segments`` ``(P, S, 2, 3)`` camera frame; ``lateral`` ``(P, S, 3)`` unit axis of the
+    section's ``half_widths`` semi-axis (perpendicular to the segment); ``heights`` and
+    ``half_widths`` ``(P, S, 2)`` the two semi-axes at the segment ends (``heights`` along
+    ``axis x lateral``).  Returns ``(silhouette, toward)`` ``(P, S, 2)``: the section's extent
+    perpendicular to both the axis and the line of sight (the half-width of the projected
+    capsule), and its extent towards the camera (how far the visible surface stands out of the
+    axis).  A circular section (equal semi-axes) gives its radius for both.
+    """
+    a, b = segments[:, :, 0, :], segments[:, :, 1, :]
+    axis = b - a
+    axis /= np.maximum(np.linalg.norm(axis, axis=-1, keepdims=True), 1e-9)
+    up = np.cross(axis, lateral)
+    sight = 0.5 * (a + b)  # camera at the origin: line of sight to the segment's middle
+    sight /= np.maximum(np.linalg.norm(sight, axis=-1, keepdims=True), 1e-9)
+    perp = np.cross(axis, sight)  # image-perpendicular direction of the projected axis
+    norm = np.linalg.norm(perp, axis=-1, keepdims=True)
+    perp = np.where(norm > 1e-6, perp / np.maximum(norm, 1e-9), lateral)  # axis along the line of sight
+    toward = np.cross(perp, axis)  # in the section plane, perpendicular to perp, facing the camera
+    def extent(d: FloatArray) -> FloatArray:
+        cl = np.einsum("psk,psk->ps", d, lateral)[..., None]
+        cu = np.einsum("psk,psk->ps", d, up)[..., None]
+        return np.sqrt((half_widths * cl) ** 2 + (heights * cu) ** 2)
+    return extent(perp), extent(toward)
+
+
 def _pairwise_distances(model: F32, fg: F32, fg_sq: F32, *, work: Workspace | None = None) -> F32:
     """Euclidean distances ``(P, M, N)`` between model points ``(P, M, 3)`` and ``fg (N, 3)``.
 
@@ -357,6 +387,7 @@ def render_depth(
     cue: CueImage,
     bbox: tuple[int, int, int, int],
     floor_clip: BoolArray | None = None,
+    depth_radii: FloatArray | None = None,
     work: Workspace | None = None,
     out: F32 | None = None,
 ) -> F32:
@@ -366,8 +397,11 @@ def render_depth(
     particles) of its own projected bbox; the per-pixel terms that are linear in the pixel
     coordinates (axis parameter, perpendicular distance) are built from separable row/column
     terms.  ``floor_clip``: ``(S,)`` segments (feet) whose surface points below the floor are
-    dropped.  ``work``: scratch buffers reused across calls; ``out``: optional C-contiguous
-    ``(P, Npix)`` float32 array to render into (overwritten and returned).
+    dropped.  ``radii`` ``(P, S, 2)`` are the half-widths of the projected capsules;
+    ``depth_radii`` (same shape, default ``radii``: circular sections) how far each segment's
+    surface stands out of its axis towards the camera (see :func:`elliptic_section_radii`).
+    ``work``: scratch buffers reused across calls; ``out``: optional C-contiguous ``(P, Npix)``
+    float32 array to render into (overwritten and returned).
     """
     intr = cue.intrinsics
     v0, v1, u0, u1 = bbox
@@ -408,6 +442,9 @@ def render_depth(
     # scratch shared by all segments, sized for the largest segment bbox
     size = p * max((b[2] - b[1]) * (b[4] - b[3]) for b in boxes)
     bufs = [_scratch(work, f"render_{i}", (size,)) for i in range(5)]
+    drad = None if depth_radii is None else np.asarray(depth_radii, dtype=np.float64)
+    elliptic = [drad is not None and not np.array_equal(drad[:, j], rad[:, j]) for j in range(s)]
+    buf_rd = _scratch(work, "render_rd", (size,)) if any(elliptic) else None
     buf_in = _scratch(work, "render_in", (size,), np.bool_)
     fx32 = np.float32(fx)
     for j, sv0, sv1, su0, su1 in boxes:
@@ -442,6 +479,12 @@ def render_depth(
         r += ra
         np.multiply(t, dz, out=z)
         z += z0
+        rd = r
+        if elliptic[j]:
+            assert drad is not None and buf_rd is not None
+            rd = np.multiply(t, (drad[:, j, 1] - drad[:, j, 0]).astype(np.float32)[:, None, None],
+                             out=buf_rd[:n].reshape(shape))
+            rd += drad[:, j, 0].astype(np.float32)[:, None, None]
         # q = 1 - d2 / rho^2 with rho = r fx / z
         rho = np.multiply(r, fx32, out=t)
         rho /= z
@@ -457,7 +500,7 @@ def render_depth(
             unit = np.divide(q, q, out=t_raw)
             np.sqrt(q, out=q)
             q *= unit
-            q *= r
+            q *= rd
             np.subtract(z, q, out=z)  # front-surface depth
             if floor_clip is not None and floor_clip[j]:
                 up = cue.ray_up[sv0:sv1, su0:su1]
@@ -545,6 +588,7 @@ def log_likelihood_2d(
     bbox: tuple[int, int, int, int] | None = None,
     ref_render: F32 | None = None,
     floor_clip: BoolArray | None = None,
+    depth_radii: FloatArray | None = None,
     chunk: int = 256,
     work: Workspace | None = None,
 ) -> FloatArray:
@@ -553,7 +597,8 @@ def log_likelihood_2d(
     ``bbox``: pixels evaluated (must contain every foreground pixel and all rendered model
     pixels for the normalisation to be exact); default = union of the foreground bbox and the
     particles' projected bbox.  ``ref_render``: ``(Npix,)`` depth of fixed model parts rendered
-    in the same bbox (z-buffered with each particle).  Particles are processed in chunks.
+    in the same bbox (z-buffered with each particle).  ``radii`` / ``depth_radii``: as in
+    :func:`render_depth`.  Particles are processed in chunks.
     ``work``: scratch buffers reused across calls (same results, less allocation).
     """
     p = segments.shape[0]
@@ -572,6 +617,7 @@ def log_likelihood_2d(
             cue=cue,
             bbox=bbox,
             floor_clip=floor_clip,
+            depth_radii=None if depth_radii is None else depth_radii[sl],
             work=work,
             out=_scratch(work, "model", (sl.stop - sl.start, obs.size)),
         )

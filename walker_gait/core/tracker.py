@@ -28,7 +28,12 @@ lives in the floor-aligned *body* frame of :mod:`walker_gait.core.leg_model`):
    drifts into the tiptoe pose.  ``foot_pitch_prior_sigma`` (``default``) is a Gaussian on each
    foot's pitch against the floor (heel-to-toe line), ``ankle_prior_sigma`` one on ankle flexion
    around neutral; the pitch prior also holds a planted foot flat when the shank leans forward
-   or back over it (late stance: hip extended, ankle dorsiflexed), where the ankle prior tilts it;
+   or back over it (late stance: hip extended, ankle dorsiflexed), where the ankle prior tilts it.
+   With ``elliptic_foot`` (``default``) both cues see each foot as a half-ellipse as wide as a shoe
+   (``leg_model.FOOT_HALF_WIDTH``) and as tall as the foot radius instead of the paper's
+   half-cylinder, which is twice as wide at the heel: the silhouette and the surface's depth
+   come from the section's extent across and along the line of sight (:func:`camera_segments`);
+   the half-cylinder made the filter shorten the model foot (by ~3.7 cm) to hide its too-wide heel;
 5. final weights with the full likelihood; estimate = weighted mean (points and angles);
 6. hidden-part handling: per-segment visibility of the estimate by comparing its rendered
    depth with the observed depth, a VISIBLE/HIDDEN state machine per segment (seed 003
@@ -67,6 +72,7 @@ from walker_gait.core.likelihood import (
     Cue3DParams,
     CueImage,
     Workspace,
+    elliptic_section_radii,
     foreground_costs,
     log_likelihood_2d,
     log_likelihood_3d,
@@ -141,6 +147,8 @@ class TrackerConfig:
     sigma_hip: float = 0.05  # rad, hip flexion/abduction/rotation
     sigma_knee: float = 0.08  # rad
     sigma_ankle: float = 0.07  # rad
+    # model
+    elliptic_foot: bool = False  # likelihood sees each foot as a half-ellipse as tall as its radius and 0.155 x foot length wide, like a shoe (false: the paper's half-cylinder)
     # pose prior
     ankle_prior_sigma: float = math.inf  # rad, Gaussian prior on ankle flexion around neutral (inf = none, paper)
     foot_pitch_prior_sigma: float = math.inf  # rad, Gaussian prior on each foot's pitch against the floor (inf = none, paper)
@@ -221,6 +229,7 @@ DEFAULT = TrackerConfig(
     fine_2d_only=True,
     sigma_root=0.008,
     foot_pitch_prior_sigma=0.3,
+    elliptic_foot=True,
 )
 """Real-time preset: partitioned annealed sampling with 96 particles; coarse layers weighted by the 3D
 cue, final layers by the combined cue with a 64x48 2D cue."""
@@ -235,6 +244,33 @@ def preset(name: str, **overrides: object) -> TrackerConfig:
     return replace(PRESETS[name], **overrides)  # type: ignore[arg-type]
 
 
+def camera_segments(
+    kin: Kinematics, body: BodyFrame, legs: tuple[int, ...] = (0, 1), *, elliptic_foot: bool
+) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """Camera-frame segments ``(P, S, 2, 3)`` of ``legs`` (``S = 3 * len(legs)``), their radii
+    towards the camera and their silhouette half-widths ``(P, S, 2)``.
+
+    The two radii differ only for the feet with ``elliptic_foot`` (cross-section
+    ``lm.FOOT_HALF_WIDTH * len_foot`` wide and as tall as the foot radius, seen from the camera:
+    :func:`~walker_gait.core.likelihood.elliptic_section_radii`); otherwise both are ``kin.radii``.
+    """
+    seg = kin.segments[:, list(legs)]  # (P, nl, 3, 2, 3)
+    p = seg.shape[0]
+    seg_c = body.to_camera(seg).reshape(p, 3 * len(legs), 2, 3)
+    rad = kin.radii[:, list(legs)].reshape(p, 3 * len(legs), 2)
+    if not elliptic_foot:
+        return seg_c, rad, rad
+    feet = slice(2, None, 3)  # the foot of each leg
+    lateral = kin.foot_lateral[:, list(legs)] @ body.body_to_cam_rot.T  # (P, nl, 3)
+    foot_len = np.linalg.norm(kin.points[:, list(legs), TOE] - kin.points[:, list(legs), HEEL], axis=-1)
+    widths = np.repeat((foot_len * lm.FOOT_HALF_WIDTH)[..., None], 2, axis=-1)
+    sil_f, toward_f = elliptic_section_radii(seg_c[:, feet], lateral, rad[:, feet], widths)
+    toward, sil = rad.copy(), rad.copy()
+    toward[:, feet] = toward_f
+    sil[:, feet] = sil_f
+    return seg_c, toward, sil
+
+
 @dataclass
 class _Reference:
     """Fixed model part (the other leg) for partitioned weighting."""
@@ -242,7 +278,8 @@ class _Reference:
     fg_costs: NDArray[np.float32] | None = None
     render: NDArray[np.float32] | None = None
     segments: FloatArray | None = None  # (1, S, 2, 3) camera frame
-    radii: FloatArray | None = None
+    radii: FloatArray | None = None  # (1, S, 2) towards the camera
+    silhouette: FloatArray | None = None  # (1, S, 2) half-widths of the projected capsules
 
 
 @dataclass
@@ -418,12 +455,10 @@ class LegTracker:
         return _Frame(body=body, fg=pts[np.sort(idx)], fg_all_body=body.to_body(pts), cue=cue)
 
     # -- likelihood -------------------------------------------------------------
-    def _cam_segments(self, frame: _Frame, kin: Kinematics, legs: tuple[int, ...]) -> tuple[FloatArray, FloatArray]:
-        seg = kin.segments[:, list(legs)]  # (P, nl, 3, 2, 3)
-        p = seg.shape[0]
-        seg_c = frame.body.to_camera(seg).reshape(p, 3 * len(legs), 2, 3)
-        rad = kin.radii[:, list(legs)].reshape(p, 3 * len(legs), 2)
-        return seg_c, rad
+    def _cam_segments(
+        self, frame: _Frame, kin: Kinematics, legs: tuple[int, ...]
+    ) -> tuple[FloatArray, FloatArray, FloatArray]:
+        return camera_segments(kin, frame.body, legs, elliptic_foot=self.config.elliptic_foot)
 
     def _active(self, legs: tuple[int, ...]) -> np.ndarray | None:
         if not self.config.hidden_parts:
@@ -444,7 +479,7 @@ class LegTracker:
         cfg = self.config
         if kin is None:
             kin = lm.forward_kinematics(states)
-        seg, rad = self._cam_segments(frame, kin, legs)
+        seg, rad, sil = self._cam_segments(frame, kin, legs)
         total = np.zeros(states.shape[0])
         if math.isfinite(cfg.ankle_prior_sigma):
             # seen from the front, a flat foot and a plantar-flexed one standing on its toes explain the
@@ -473,15 +508,17 @@ class LegTracker:
             # same cost to all of them, which normalised (log) weights ignore, so the 2D cue is
             # evaluated over the particles' own bbox (identical weights, less work than eq. 9's
             # whole image; `log_likelihood_2d` keeps the whole-image normaliser).
-            bbox = project_bbox(seg, rad, intrinsics=frame.cue.intrinsics)
+            bbox = project_bbox(seg, np.maximum(rad, sil), intrinsics=frame.cue.intrinsics)
             ref_render = None
             if ref is not None and ref.segments is not None:
                 ref_render = render_depth(
-                    ref.segments, ref.radii, cue=frame.cue, bbox=bbox, floor_clip=self._floor_clip[:3]
+                    ref.segments, ref.silhouette, cue=frame.cue, bbox=bbox, floor_clip=self._floor_clip[:3],
+                    depth_radii=ref.radii,
                 )[0]
             total += log_likelihood_2d(
                 seg,
-                rad,
+                sil,
+                depth_radii=rad,
                 cue=frame.cue,
                 params=self._p2,
                 bbox=bbox,
@@ -493,8 +530,8 @@ class LegTracker:
 
     def _reference(self, frame: _Frame, state: FloatArray, leg: int) -> _Reference:
         kin = lm.forward_kinematics(state[None])
-        seg, rad = self._cam_segments(frame, kin, (leg,))
-        ref = _Reference(segments=seg, radii=rad)
+        seg, rad, sil = self._cam_segments(frame, kin, (leg,))
+        ref = _Reference(segments=seg, radii=rad, silhouette=sil)
         if self.config.cue in ("3d", "combined"):
             ref.fg_costs = foreground_costs(seg, rad, fg=frame.fg, n=self.config.n_skeleton)[0]
         return ref
@@ -671,7 +708,7 @@ class LegTracker:
         pts_body = np.einsum("p,pijk->ijk", w, kin_all.points)
         mean_c, kin_mean, _ = lm.enforce_constraints(mean[None])
         self._mean = mean_c[0]
-        seg_c, rad = self._cam_segments(frame, kin_mean, (0, 1))
+        seg_c, rad, _ = self._cam_segments(frame, kin_mean, (0, 1))
         visibility = self._visibility(frame, seg_c, rad)
         conf, explained = self._confidence(frame, seg_c, rad)
         if self.config.hidden_parts:
