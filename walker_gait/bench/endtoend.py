@@ -37,6 +37,9 @@ class Score:
     matched_steps: int = 0
     precision: float = float("nan")
     recall: float = float("nan")
+    gt_steps_in_view: int = 0  # true steps whose heel strike follows >= IN_VIEW_LEAD_S s of both legs in view
+    matched_in_view: int = 0
+    recall_in_view: float = float("nan")
     step_length_err_cm: tuple[float, float] = (float("nan"), float("nan"))  # mean, SD of |error|
     step_width_err_cm: tuple[float, float] = (float("nan"), float("nan"))
     hs_timing_median_frames: float = float("nan")
@@ -51,6 +54,31 @@ class Score:
     def fps(self) -> float:
         total = sum(self.ms_per_frame.values())
         return 1000.0 / total if total > 0 else float("nan")
+
+
+IN_VIEW_LEAD_S = 1.0
+"""A true step counts as *in view* when both legs were trackable for this long (s) before its heel
+strike: the tracker's re-acquisition allowance (issue: recover within 1 s)."""
+
+
+def steps_in_view(step_stamps: np.ndarray, stamps: np.ndarray, trackable: np.ndarray, *,
+                  lead_s: float = IN_VIEW_LEAD_S) -> np.ndarray:
+    """``(S,)`` True for steps (heel-strike ``step_stamps``) preceded by ``lead_s`` s of trackable frames.
+
+    ``stamps`` ``(T,)`` increasing frame times, ``trackable`` ``(T,)`` both legs in view.  A step
+    before the first frame, after the last, or closer than ``lead_s`` to the session start is
+    not in view (no evidence it could be seen).
+    """
+    step_stamps = np.asarray(step_stamps, dtype=float)
+    stamps = np.asarray(stamps, dtype=float)
+    ok = np.asarray(trackable, dtype=bool)
+    out = np.zeros(step_stamps.shape, dtype=bool)
+    for i, t in enumerate(step_stamps):
+        if t - lead_s < stamps[0] - 1e-9 or t > stamps[-1] + 1e-9:
+            continue
+        window = (stamps >= t - lead_s - 1e-9) & (stamps <= t + 1e-9)
+        out[i] = bool(window.any() and ok[window].all())
+    return out
 
 
 def _gt_as_steps(session: Any) -> list[Step]:
@@ -166,6 +194,10 @@ def evaluate(session: Any, *, preset: str = "default", cue: str | None = None, s
     score.matched_steps = len(pairs)
     score.precision = len(pairs) / len(steps) if steps else float("nan")
     score.recall = len(pairs) / len(gt) if gt else float("nan")
+    in_view = steps_in_view(np.array([g.stamp for g in gt]), np.asarray(session.stamps[:n]), vis) if gt else np.zeros(0, bool)
+    score.gt_steps_in_view = int(in_view.sum())
+    score.matched_in_view = int(sum(1 for t, _ in pairs if in_view[t]))
+    score.recall_in_view = score.matched_in_view / score.gt_steps_in_view if score.gt_steps_in_view else float("nan")
     le = np.array([abs(steps[d].step_length - gt[t].step_length) for t, d in pairs
                    if np.isfinite(gt[t].step_length)]) * 100
     we = np.array([abs(steps[d].step_width - gt[t].step_width) for t, d in pairs
