@@ -115,13 +115,30 @@ def render(session: Any, max_frames: int | None = None) -> Rendered:
     return Rendered(frames=frames, visible_pixels=visible, seconds=time.perf_counter() - t0)
 
 
-def evaluate(session: Any, *, preset: str = "default", cue: str | None = None, seed: int = 0,
-             max_frames: int | None = None, overrides: dict[str, Any] | None = None,
-             rendered: Rendered | None = None) -> Score:
-    """Run the pipeline on ``session`` (a ``walker_gait.synth.Session``) and score it."""
+def trackable_frames(session: Any, rendered: Rendered) -> np.ndarray:
+    """``(T,)`` frames where both legs are in view (200 valid pixels each at 640x480, scaled to the camera)."""
+    intr = session.intrinsics
+    scale = (intr.width * intr.height) / (640 * 480)
+    return rendered.trackable(min_pixels=max(20, int(200 * scale)))
+
+
+@dataclass
+class PipelineRun:
+    """Output of :func:`run_pipeline`: per-frame poses, the detected steps and per-stage times."""
+
+    tracker_cue: str
+    poses: list[Any]  # LegPose per frame
+    steps: list[Step]
+    timing_ms: dict[str, float]  # summed over frames, per STAGES entry
+    tracker_ms: list[float]  # per frame
+
+
+def run_pipeline(session: Any, rendered: Rendered, *, preset: str = "default", cue: str | None = None, seed: int = 0,
+                 max_frames: int | None = None, overrides: dict[str, Any] | None = None) -> PipelineRun:
+    """The offline pipeline (``FrameProcessor``) on a session's rendered frames, as ``walker-gait process``
+    runs it; tracker ``preset`` with ``overrides`` (``TrackerConfig`` fields) and ``cue``."""
     import dataclasses
 
-    from walker_gait.bench.gait import match_steps
     from walker_gait.core.tracker import preset as tracker_preset
     from walker_gait.pipeline import FrameProcessor, PipelineOptions
 
@@ -134,24 +151,34 @@ def evaluate(session: Any, *, preset: str = "default", cue: str | None = None, s
     proc = FrameProcessor(PipelineOptions(preset=preset, tracker=tracker, seed=seed, write_mcap=False,
                                           write_report=False))
     proc.set_camera_info(SimpleNamespace(**session.camera_info()))
-    rendered = rendered if rendered is not None else render(session, max_frames)
     n = len(rendered.frames) if max_frames is None else min(len(rendered.frames), max_frames)
     intr = session.intrinsics
-    timing = {k: 0.0 for k in STAGES}
-    tracker_ms: list[float] = []
-    poses = []
-    steps: list[Step] = []
+    run = PipelineRun(tracker_cue=tracker.cue, poses=[], steps=[], timing_ms={k: 0.0 for k in STAGES}, tracker_ms=[])
     for i in range(n):
-        depth_mm = rendered.frames[i]
-        res = proc.process(stamp=float(session.stamps[i]), data=depth_mm, encoding="16UC1", width=intr.width,
-                           height=intr.height, step=intr.width * 2, is_bigendian=False)
+        res = proc.process(stamp=float(session.stamps[i]), data=rendered.frames[i], encoding="16UC1",
+                           width=intr.width, height=intr.height, step=intr.width * 2, is_bigendian=False)
         for k in STAGES:
-            timing[k] += res.timings_ms[k]
-        tracker_ms.append(res.timings_ms["tracker"])
-        poses.append(res.pose)
-        steps.extend(res.steps)
-    steps.extend(proc.finish()[1])
-    score = Score(scenario=session.spec.scenario, preset=preset, cue=tracker.cue, frames=n,
+            run.timing_ms[k] += res.timings_ms[k]
+        run.tracker_ms.append(res.timings_ms["tracker"])
+        run.poses.append(res.pose)
+        run.steps.extend(res.steps)
+    run.steps.extend(proc.finish()[1])
+    return run
+
+
+def evaluate(session: Any, *, preset: str = "default", cue: str | None = None, seed: int = 0,
+             max_frames: int | None = None, overrides: dict[str, Any] | None = None,
+             rendered: Rendered | None = None) -> Score:
+    """Run the pipeline on ``session`` (a ``walker_gait.synth.Session``) and score it."""
+    from walker_gait.bench.gait import match_steps
+
+    rendered = rendered if rendered is not None else render(session, max_frames)
+    run = run_pipeline(session, rendered, preset=preset, cue=cue, seed=seed, max_frames=max_frames,
+                       overrides=overrides)
+    n = len(run.poses)
+    intr = session.intrinsics
+    timing, tracker_ms, poses, steps = run.timing_ms, run.tracker_ms, run.poses, run.steps
+    score = Score(scenario=session.spec.scenario, preset=preset, cue=run.tracker_cue, frames=n,
                   ms_per_frame={k: v / max(n, 1) for k, v in timing.items()})
     if tracker_ms:
         score.tracker_first_ms = tracker_ms[0]
@@ -159,8 +186,7 @@ def evaluate(session: Any, *, preset: str = "default", cue: str | None = None, s
     # --- joints: frames where both legs are in view
     truth = np.asarray(session.leg_points[:n])
     est = np.stack([p.points for p in poses])
-    scale = (intr.width * intr.height) / (640 * 480)
-    vis = rendered.trackable(min_pixels=max(20, int(200 * scale)))[:n]
+    vis = trackable_frames(session, rendered)[:n]
     err = np.linalg.norm(est - truth, axis=-1)  # T, 2, 5
     swapped = np.linalg.norm(est[:, ::-1] - truth, axis=-1)
     with np.errstate(divide="ignore", invalid="ignore"):

@@ -1,0 +1,94 @@
+"""The accuracy sweep (walker_gait.bench.sweep): its figures on hand-built runs, and one real session."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from walker_gait.bench import sweep
+from walker_gait.core.types import HEEL, TOE, Side, Step
+
+
+def _step(stamp: float, side: int, length: float, width: float) -> Step:
+    nan = math.nan
+    return Step(stamp=stamp, side=Side(side), index=0, step_length=length, step_width=width, step_time=0.5,
+                stride_length=nan, stride_time=nan, stance_time=nan, swing_time=nan, single_support_time=nan,
+                double_support_time=nan)
+
+
+def _run(seed: int = 0) -> sweep.SessionRun:
+    """60 frames, floor z = 0 seen from a camera looking along +z (progression = -z); known tracking errors."""
+    rng = np.random.default_rng(seed)
+    t = 60
+    truth = rng.normal(0.0, 0.2, (t, 2, 5, 3)) + np.array([0.0, 0.0, 1.5])
+    truth[:, :, TOE] = truth[:, :, HEEL] + np.array([0.0, 0.0, -0.26])  # feet 26 cm long, pointing at the camera
+    est = truth.copy()
+    est[:, :, HEEL] += np.array([0.0, 0.0, -0.02])  # every heel 2 cm forward: foot 2 cm short
+    gt = [_step(0.5, 0, 0.50, 0.10), _step(1.0, 1, 0.55, 0.12)]
+    det = [_step(0.51, 0, 0.51, 0.13), _step(1.02, 1, 0.56, 0.15)]
+    est[15, 1, TOE] += np.array([0.0, 0.0, -0.05])  # at the first heel strike (left), the right toe is 5 cm ahead
+    est[30, 0, TOE] += np.array([0.0, 0.0, -0.03])  # at the second (right), the left toe 3 cm ahead
+    return sweep.SessionRun(key="normal:1", tracker_seed=seed, stamps=np.arange(t) / 30.0, est=est, truth=truth,
+                            trackable=np.ones(t, dtype=bool), floor_normal=np.array([0.0, -1.0, 0.0]), floor_offset=0.5,
+                            gt=gt, det=det, pairs=[(0, 0), (1, 1)], tracker_ms=10.0)
+
+
+def test_session_list() -> None:
+    assert sweep.session_list(("normal", "occlusion"), 2, 100) == [("normal", 100), ("normal", 101),
+                                                                    ("occlusion", 110), ("occlusion", 111)]
+    with pytest.raises(ValueError):
+        sweep.session_list(("normal",), 11, 100)
+
+
+def test_summarise_hand_built_errors() -> None:
+    s = sweep.summarise([_run()])
+    assert s["joint_err_cm"]["heel"] == pytest.approx(2.0)
+    assert s["joint_err_cm"]["hip"] == pytest.approx(0.0)
+    assert s["joint_err_cm"]["toe"] == pytest.approx((5 + 3) / (60 * 2))  # two toes off, in 120 foot-frames
+    assert s["frames_over_10cm_pct"] == 0.0 and s["good_frame_err_cm"]["heel"] == pytest.approx(2.0)
+    assert s["foot_length_bias_cm"] == pytest.approx(-2.0)
+    assert (s["gt_steps"], s["detected_steps"], s["matched_steps"]) == (2, 2, 2)
+    assert s["precision"] == 1.0 and s["recall"] == 1.0
+    assert (s["gt_steps_in_view"], s["matched_in_view"]) == (1, 1)  # the first step comes 0.5 s into the session
+    assert s["step_length_bias_cm"] == pytest.approx(1.0) and s["step_length_mae_cm"] == pytest.approx(1.0)
+    assert s["step_width_bias_cm"] == pytest.approx(3.0)
+    assert s["trailing_toe_median_cm"] == pytest.approx(4.0) and s["trailing_toe_mean_cm"] == pytest.approx(4.0)
+    # a frame lost (no estimate) counts as > 10 cm
+    r = _run()
+    r.est[10] = np.nan
+    assert sweep.summarise([r])["frames_over_10cm_pct"] == pytest.approx(100 / 60)
+
+
+def test_report_pools_per_seed_and_scenario() -> None:
+    rep = sweep.report([_run(0), _run(1)])
+    assert set(rep["per_tracker_seed"]) == {"0", "1"} and set(rep["per_scenario"]) == {"normal"}
+    assert rep["per_scenario"]["normal"]["matched_steps"] == 4
+    table = sweep.format_table({"x": rep})
+    assert "| heel err cm | 2.00 | 2.00 |" in table
+
+
+@pytest.mark.slow
+def test_real_session_and_cli(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    runs = sweep.run_session("normal", 7, duration=3.0, tracker_seeds=(0,), cache=tmp_path / "cache")
+    assert len(runs) == 1 and (tmp_path / "cache" / "normal_7_3s.npz").exists()
+    r = runs[0]
+    assert r.est.shape == r.truth.shape and r.trackable.all() and len(r.gt) >= 2
+    s = sweep.summarise(runs)
+    assert s["joint_err_cm"]["ankle"] < 15.0  # tracked, not lost
+    # the analyzer on the exact poses measures the true steps (its own error is sub-centimetre)
+    exact = sweep.oracle(runs, (0, 1, 2, 3, 4))
+    assert exact["matched_steps"] >= len(r.gt) - 1 and exact["step_length_mae_cm"] < 1.0
+    none = sweep.oracle(runs, ())
+    assert none["matched_steps"] == len(r.pairs)  # nothing substituted: the pipeline's own steps (true floor)
+    # CLI: bad override, then --compare of a written summary
+    assert sweep.main(["--out", str(tmp_path / "o"), "--override", '{"no_such_field": 1}']) == 2
+    assert "no_such_field" in capsys.readouterr().err
+    (tmp_path / "a").mkdir()
+    (tmp_path / "a" / "summary.json").write_text(json.dumps(sweep.report(runs)))
+    assert sweep.main(["--compare", str(tmp_path / "a")]) == 0
+    assert "| heel err cm |" in capsys.readouterr().out
+    assert sweep.main(["--compare", str(tmp_path / "missing")]) == 2

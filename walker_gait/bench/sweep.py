@@ -1,0 +1,356 @@
+"""Accuracy sweep over many synthetic sessions and tracker seeds: the tool for judging a tracker change.
+
+The tracker is chaotic: any change reshuffles single sessions by several steps and centimetres, and the
+same configuration run with another tracker seed moves the step-length error by ±1-3 cm.  One session
+per scenario (``make bench``) cannot tell a change from that noise; this sweep runs ``--per-scenario``
+sessions of every scenario (sessions are generated once and their renders cached) with several
+tracker seeds, and reports per tracker seed, so a change is judged by whether it moves every column
+the same way.
+
+``python -m walker_gait.bench.sweep --out out/sweep/base`` then, after a change,
+``python -m walker_gait.bench.sweep --out out/sweep/new --override '{"elliptic_foot": false}'`` and
+``python -m walker_gait.bench.sweep --compare out/sweep/base out/sweep/new``.
+
+Figures (``summary.json``; lengths in cm): joint errors over frames with both legs in view, the share
+of those frames with a mean error > 10 cm, errors on the *well-tracked* frames (mean error ≤ 10 cm:
+little moved by the chaos), the model foot's length bias, step detection (recall also over the steps
+in view, :func:`~walker_gait.bench.endtoend.steps_in_view`), step length/width error, and per scenario
+the progression error of the trailing foot's toe at each true heel strike (the reference point of the
+step vector).  ``--oracle`` also re-runs the gait analyzer on the tracked poses with the true toes,
+heels or ankles substituted: what the step metrics would be if that point were tracked exactly.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import sys
+import time
+from concurrent.futures import ProcessPoolExecutor
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from walker_gait.core.types import ANKLE, HEEL, TOE, LegPose, Step, TrackStatus
+
+SCENARIOS = ("normal", "slow_elderly", "baggy_trousers", "occlusion", "asymmetric", "stop_and_go", "absent_start",
+             "different_camera")
+ORACLE_POINTS = {"toes": (TOE,), "heels": (HEEL,), "ankles": (ANKLE,), "feet": (ANKLE, HEEL, TOE)}
+
+
+@dataclass
+class SessionRun:
+    """One session tracked with one tracker seed (camera frame, metres)."""
+
+    key: str  # "scenario:session seed"
+    tracker_seed: int
+    stamps: np.ndarray  # (T,)
+    est: np.ndarray  # (T, 2, 5, 3) tracked LEG_POINTS, NaN without an estimate
+    truth: np.ndarray  # (T, 2, 5, 3)
+    trackable: np.ndarray  # (T,) both legs in view
+    floor_normal: np.ndarray  # (3,) true floor normal (up)
+    floor_offset: float
+    gt: list[Step]
+    det: list[Step]
+    pairs: list[tuple[int, int]]  # (gt index, det index)
+    tracker_ms: float  # mean per frame after the first
+
+    @property
+    def scenario(self) -> str:
+        return self.key.split(":")[0]
+
+
+def session_list(scenarios: tuple[str, ...], per_scenario: int, base_seed: int) -> list[tuple[str, int]]:
+    """``(scenario, session seed)``: seeds ``base_seed + 10 k + j`` for scenario ``k``, session ``j``."""
+    if per_scenario < 1 or per_scenario > 10:
+        raise ValueError(f"per_scenario must be in 1..10, got {per_scenario}")
+    return [(sc, base_seed + 10 * k + j) for k, sc in enumerate(scenarios) for j in range(per_scenario)]
+
+
+def _session(scenario: str, seed: int, duration: float) -> Any:
+    from walker_gait.synth import SessionSpec, generate_session
+
+    dur = max(duration, 14.0) if scenario == "absent_start" else duration  # as make bench: time to walk in
+    return generate_session(SessionSpec.preset(scenario, duration=dur), rng=np.random.default_rng(seed))
+
+
+def _rendered(session: Any, cache: Path | None, name: str) -> Any:
+    from walker_gait.bench.endtoend import Rendered, render
+
+    path = None if cache is None else cache / f"{name}.npz"
+    if path is not None and path.exists():
+        with np.load(path) as z:
+            return Rendered(frames=list(z["frames"]), visible_pixels=z["visible"], seconds=0.0)
+    rendered = render(session)
+    if path is not None:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        tmp = path.with_name(path.name + f".{os.getpid()}.tmp.npz")
+        np.savez_compressed(tmp, frames=np.stack(rendered.frames), visible=rendered.visible_pixels)
+        os.replace(tmp, path)
+    return rendered
+
+
+def run_session(scenario: str, seed: int, *, duration: float, tracker_seeds: tuple[int, ...],
+                overrides: dict[str, Any] | None = None, cache: Path | None = None) -> list[SessionRun]:
+    """Generate (or load the cached render of) one session and track it once per tracker seed."""
+    from walker_gait.bench.endtoend import _gt_as_steps, run_pipeline, trackable_frames
+    from walker_gait.bench.gait import match_steps
+
+    session = _session(scenario, seed, duration)
+    rendered = _rendered(session, cache, f"{scenario}_{seed}_{duration:g}s")
+    trackable = trackable_frames(session, rendered)
+    n = len(rendered.frames)
+    stamps = np.asarray(session.stamps[:n], dtype=float)
+    gt = [s for s in _gt_as_steps(session) if s.stamp <= stamps[-1]]
+    floor = session.params.mount.floor_plane()
+    out = []
+    for ts in tracker_seeds:
+        run = run_pipeline(session, rendered, seed=ts, overrides=overrides)
+        pairs, _, _ = match_steps(gt, run.steps)
+        out.append(SessionRun(
+            key=f"{scenario}:{seed}", tracker_seed=ts, stamps=stamps,
+            est=np.stack([p.points for p in run.poses]), truth=np.asarray(session.leg_points[:n], dtype=float),
+            trackable=trackable, floor_normal=np.asarray(floor.normal, dtype=float), floor_offset=float(floor.offset),
+            gt=gt, det=run.steps, pairs=pairs,
+            tracker_ms=float(np.mean(run.tracker_ms[1:])) if n > 1 else float("nan")))
+    return out
+
+
+def _progression(run: SessionRun) -> np.ndarray:
+    """Unit direction of walking in the camera frame: towards the camera, along the floor."""
+    up = run.floor_normal
+    z = np.array([0.0, 0.0, 1.0])
+    d = -(z - (z @ up) * up)
+    return d / np.linalg.norm(d)
+
+
+def _step_errors(runs: list[SessionRun]) -> dict[str, float]:
+    length = np.array([r.det[j].step_length - r.gt[t].step_length for r in runs for t, j in r.pairs]) * 100
+    width = np.array([r.det[j].step_width - r.gt[t].step_width for r in runs for t, j in r.pairs
+                      if math.isfinite(r.gt[t].step_width)]) * 100
+    out: dict[str, float] = {}
+    for name, e in (("length", length), ("width", width)):
+        out[f"step_{name}_mae_cm"] = float(np.mean(np.abs(e))) if e.size else math.nan
+        out[f"step_{name}_bias_cm"] = float(np.mean(e)) if e.size else math.nan
+        out[f"step_{name}_median_abs_cm"] = float(np.median(np.abs(e))) if e.size else math.nan
+    return out
+
+
+def _trailing_toe(runs: list[SessionRun]) -> dict[str, float]:
+    """Progression error (cm, + = ahead) of the other foot's toe at each matched true heel strike."""
+    errs = []
+    for r in runs:
+        prog = _progression(r)
+        for t, _ in r.pairs:
+            g = r.gt[t]
+            i = int(np.argmin(np.abs(r.stamps - g.stamp)))
+            other = 1 - int(g.side)
+            errs.append(float((r.est[i, other, TOE] - r.truth[i, other, TOE]) @ prog) * 100)
+    e = np.array(errs)
+    e = e[np.isfinite(e)]
+    return {"trailing_toe_median_cm": float(np.median(e)) if e.size else math.nan,
+            "trailing_toe_mean_cm": float(np.mean(e)) if e.size else math.nan}
+
+
+def summarise(runs: list[SessionRun]) -> dict[str, Any]:
+    """Figures of a set of runs (one tracker seed, or several pooled)."""
+    import warnings
+
+    from walker_gait.bench.endtoend import steps_in_view
+
+    err_all, good_all, flen = [], [], []
+    gt = det = matched = in_view = matched_in_view = 0
+    with warnings.catch_warnings():
+        warnings.filterwarnings("ignore", message="Mean of empty slice", category=RuntimeWarning)
+        for r in runs:
+            e = np.linalg.norm(r.est - r.truth, axis=-1)[r.trackable]  # (F, 2, 5)
+            per_frame = np.nanmean(e, axis=(1, 2))
+            good = per_frame <= 0.10
+            err_all.append(e)
+            good_all.append(e[good])
+            est_len = np.linalg.norm(r.est[:, :, TOE] - r.est[:, :, HEEL], axis=-1)[r.trackable][good]
+            true_len = np.linalg.norm(r.truth[:, :, TOE] - r.truth[:, :, HEEL], axis=-1)[r.trackable][good]
+            flen.append((est_len - true_len).ravel())
+            gt += len(r.gt)
+            det += len(r.det)
+            matched += len(r.pairs)
+            iv = steps_in_view(np.array([s.stamp for s in r.gt]), r.stamps, r.trackable) if r.gt else np.zeros(0, bool)
+            in_view += int(iv.sum())
+            matched_in_view += sum(1 for t, _ in r.pairs if iv[t])
+        e = np.concatenate(err_all) if err_all else np.zeros((0, 2, 5))
+        g = np.concatenate(good_all) if good_all else np.zeros((0, 2, 5))
+        per_frame = np.nanmean(e, axis=(1, 2)) if len(e) else np.zeros(0)
+        names = ("hip", "knee", "ankle", "heel", "toe")
+        out: dict[str, Any] = {
+            "sessions": len(runs),
+            "joint_err_cm": {p: float(np.nanmean(e[:, :, k]) * 100) for k, p in enumerate(names)},
+            "frames_over_10cm_pct": float(np.mean(~(per_frame <= 0.10)) * 100) if len(e) else math.nan,
+            "good_frame_err_cm": {p: float(np.nanmean(g[:, :, k]) * 100) for k, p in enumerate(names) if k >= ANKLE},
+        }
+    fl = np.concatenate(flen) if flen else np.zeros(0)
+    out["foot_length_bias_cm"] = float(np.nanmedian(fl) * 100) if np.isfinite(fl).any() else math.nan
+    out.update(gt_steps=gt, detected_steps=det, matched_steps=matched, gt_steps_in_view=in_view,
+               matched_in_view=matched_in_view, precision=matched / det if det else math.nan,
+               recall=matched / gt if gt else math.nan,
+               recall_in_view=matched_in_view / in_view if in_view else math.nan)
+    out.update(_step_errors(runs))
+    out.update(_trailing_toe(runs))
+    out["tracker_ms"] = float(np.nanmean([r.tracker_ms for r in runs])) if runs else math.nan
+    return out
+
+
+def oracle(runs: list[SessionRun], points: tuple[int, ...]) -> dict[str, float]:
+    """Step figures of the gait analyzer fed the tracked poses with the true ``points`` substituted.
+
+    The analyzer gets the true floor and every frame with an estimate at full confidence, so ``points=()``
+    differs a little from the pipeline's own steps (estimated floor, tracker confidences)."""
+    from walker_gait.bench.gait import match_steps, run_analyzer
+    from walker_gait.core.types import FloorPlane
+
+    subs = []
+    for r in runs:
+        poses = []
+        for i in range(len(r.stamps)):
+            p = r.est[i].copy()
+            p[:, list(points)] = r.truth[i][:, list(points)]
+            ok = bool(np.all(np.isfinite(p)))
+            poses.append(LegPose(stamp=float(r.stamps[i]), points=p if ok else np.full((2, 5, 3), np.nan),
+                                 status=TrackStatus.TRACKING if ok else TrackStatus.NO_USER, confidence=1.0 if ok else 0.0))
+        floor = FloorPlane(normal=r.floor_normal, offset=r.floor_offset, rms=0.0, inlier_ratio=1.0, valid=True)
+        det = run_analyzer(poses, floor).steps
+        pairs, _, _ = match_steps(r.gt, det)
+        subs.append(SessionRun(key=r.key, tracker_seed=r.tracker_seed, stamps=r.stamps, est=r.est, truth=r.truth,
+                               trackable=r.trackable, floor_normal=r.floor_normal, floor_offset=r.floor_offset,
+                               gt=r.gt, det=det, pairs=pairs, tracker_ms=r.tracker_ms))
+    out = {"matched_steps": float(sum(len(s.pairs) for s in subs))}
+    out.update(_step_errors(subs))
+    return out
+
+
+def report(runs: list[SessionRun], *, with_oracle: bool = False) -> dict[str, Any]:
+    """``summary.json`` content: per tracker seed, and per scenario (tracker seeds pooled)."""
+    seeds = sorted({r.tracker_seed for r in runs})
+    out: dict[str, Any] = {"per_tracker_seed": {str(s): summarise([r for r in runs if r.tracker_seed == s]) for s in seeds}}
+    out["per_scenario"] = {}
+    for sc in dict.fromkeys(r.scenario for r in runs):
+        sub = [r for r in runs if r.scenario == sc]
+        s = summarise(sub)
+        out["per_scenario"][sc] = {k: s[k] for k in ("joint_err_cm", "frames_over_10cm_pct", "matched_steps", "gt_steps",
+                                                     "step_length_mae_cm", "step_length_bias_cm", "step_width_mae_cm",
+                                                     "trailing_toe_median_cm")}
+    if with_oracle:
+        out["oracle"] = {str(s): {name: oracle([r for r in runs if r.tracker_seed == s], pts)
+                                  for name, pts in (("none", ()), *ORACLE_POINTS.items())} for s in seeds}
+    return out
+
+
+_ROWS = (("heel err cm", ("joint_err_cm", "heel")), ("toe err cm", ("joint_err_cm", "toe")),
+         ("ankle err cm", ("joint_err_cm", "ankle")), ("frames > 10 cm %", ("frames_over_10cm_pct",)),
+         ("good-frame heel cm", ("good_frame_err_cm", "heel")), ("good-frame toe cm", ("good_frame_err_cm", "toe")),
+         ("foot length bias cm", ("foot_length_bias_cm",)), ("matched steps", ("matched_steps",)),
+         ("recall in view", ("recall_in_view",)), ("precision", ("precision",)),
+         ("step length MAE cm", ("step_length_mae_cm",)), ("step length bias cm", ("step_length_bias_cm",)),
+         ("step width MAE cm", ("step_width_mae_cm",)), ("step width bias cm", ("step_width_bias_cm",)),
+         ("trailing toe median cm", ("trailing_toe_median_cm",)), ("tracker ms/frame", ("tracker_ms",)))
+
+
+def format_table(summaries: dict[str, dict[str, Any]]) -> str:
+    """Markdown table: one column per (name, tracker seed), one row per figure."""
+    cols = [(name, seed, s) for name, rep in summaries.items() for seed, s in rep["per_tracker_seed"].items()]
+    lines = ["| figure | " + " | ".join(f"{n} (seed {sd})" for n, sd, _ in cols) + " |",
+             "|---|" + "---|" * len(cols)]
+    for label, path in _ROWS:
+        vals = []
+        for _, _, s in cols:
+            v: Any = s
+            for p in path:
+                v = v[p]
+            vals.append(f"{v:.2f}" if isinstance(v, float) else str(v))
+        lines.append(f"| {label} | " + " | ".join(vals) + " |")
+    return "\n".join(lines)
+
+
+def format_oracle(rep: dict[str, Any]) -> str:
+    """Markdown table of the ``oracle`` figures: step length / width MAE (bias) per substituted point."""
+    lines = ["| tracker seed | substituted | matched | step length MAE (bias) cm | step width MAE (bias) cm |",
+             "|---|---|---|---|---|"]
+    for seed, by_name in rep.get("oracle", {}).items():
+        for name, o in by_name.items():
+            lines.append(f"| {seed} | {name} | {o['matched_steps']:.0f} | {o['step_length_mae_cm']:.2f} "
+                         f"({o['step_length_bias_cm']:+.2f}) | {o['step_width_mae_cm']:.2f} ({o['step_width_bias_cm']:+.2f}) |")
+    return "\n".join(lines)
+
+
+def _work(args: tuple[str, int, float, tuple[int, ...], dict[str, Any], Path | None]) -> list[SessionRun]:
+    scenario, seed, duration, seeds, overrides, cache = args
+    return run_session(scenario, seed, duration=duration, tracker_seeds=seeds, overrides=overrides, cache=cache)
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(prog="python -m walker_gait.bench.sweep", description=__doc__.split("\n\n")[0])
+    ap.add_argument("--out", type=Path, help="output directory (summary.json, table.md)")
+    ap.add_argument("--compare", type=Path, nargs="+", metavar="DIR", help="print the summaries of earlier sweeps side by side")
+    ap.add_argument("--override", default="{}", help="TrackerConfig field overrides of the default preset, JSON")
+    ap.add_argument("--scenarios", nargs="+", default=list(SCENARIOS), choices=SCENARIOS)
+    ap.add_argument("--per-scenario", type=int, default=4, help="sessions per scenario (default 4)")
+    ap.add_argument("--base-seed", type=int, default=100, help="session seeds: base + 10 k + j (default 100; 500 = a second set)")
+    ap.add_argument("--tracker-seeds", type=int, nargs="+", default=[0, 1])
+    ap.add_argument("--duration", type=float, default=8.0, help="s per session (absent_start: at least 14)")
+    ap.add_argument("--cache", type=Path, default=Path("out/sweep/cache"), help="rendered sessions (reused)")
+    ap.add_argument("--jobs", type=int, default=os.cpu_count() or 1)
+    ap.add_argument("--oracle", action="store_true", help="also step figures with true toes/heels/ankles substituted")
+    a = ap.parse_args(argv)
+    if a.compare:
+        reps = {}
+        for d in a.compare:
+            path = d / "summary.json"
+            try:
+                reps[d.name] = json.loads(path.read_text())
+            except (OSError, json.JSONDecodeError) as exc:
+                print(f"sweep: cannot read {path}: {exc}", file=sys.stderr)
+                return 2
+        print(format_table(reps))
+        return 0
+    if a.out is None:
+        ap.error("--out is required (or --compare)")
+    try:
+        overrides = json.loads(a.override)
+        from walker_gait.core.tracker import preset
+
+        preset("default", **overrides)
+    except (json.JSONDecodeError, TypeError, ValueError) as exc:
+        print(f"sweep: bad --override {a.override!r}: {exc}", file=sys.stderr)
+        return 2
+    sessions = session_list(tuple(a.scenarios), a.per_scenario, a.base_seed)
+    jobs = [(sc, sd, a.duration, tuple(a.tracker_seeds), overrides, a.cache) for sc, sd in sessions]
+    t0 = time.perf_counter()
+    runs: list[SessionRun] = []
+    from tqdm import tqdm
+
+    with ProcessPoolExecutor(max_workers=max(1, a.jobs)) as pool:
+        for res in tqdm(pool.map(_work, jobs), total=len(jobs), desc="sessions", unit="session", file=sys.stderr):
+            runs.extend(res)
+    rep = report(runs, with_oracle=a.oracle)
+    rep["config"] = {"override": overrides, "scenarios": a.scenarios, "per_scenario": a.per_scenario,
+                     "base_seed": a.base_seed, "tracker_seeds": a.tracker_seeds, "duration": a.duration,
+                     "seconds": round(time.perf_counter() - t0, 1)}
+    a.out.mkdir(parents=True, exist_ok=True)
+    table = format_table({a.out.name: rep})
+    if a.oracle:
+        table += "\n\nGait analyzer on the tracked poses with true points substituted:\n\n" + format_oracle(rep)
+    for name, text in (("summary.json", json.dumps(rep, indent=1)), ("table.md", table + "\n")):
+        tmp = a.out / f".{name}.tmp"
+        tmp.write_text(text)
+        os.replace(tmp, a.out / name)
+    print(table)
+    print(f"[sweep] {len(sessions)} sessions x {len(a.tracker_seeds)} tracker seeds in {time.perf_counter() - t0:.0f} s -> "
+          f"{a.out}", file=sys.stderr)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
