@@ -33,7 +33,7 @@ def _run(seed: int = 0) -> sweep.SessionRun:
     est[15, 1, TOE] += np.array([0.0, 0.0, -0.05])  # at the first heel strike (left), the right toe is 5 cm ahead
     est[30, 0, TOE] += np.array([0.0, 0.0, -0.03])  # at the second (right), the left toe 3 cm ahead
     return sweep.SessionRun(key="normal:1", tracker_seed=seed, stamps=np.arange(t) / 30.0, est=est, truth=truth,
-                            trackable=np.ones(t, dtype=bool), floor_normal=np.array([0.0, -1.0, 0.0]), floor_offset=0.5,
+                            trackable=np.ones(t, dtype=bool), present=np.ones(t, dtype=bool), floor_normal=np.array([0.0, -1.0, 0.0]), floor_offset=0.5,
                             gt=gt, det=det, pairs=[(0, 0), (1, 1)], tracker_ms=10.0)
 
 

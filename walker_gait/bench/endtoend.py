@@ -57,21 +57,22 @@ class Score:
 
 
 IN_VIEW_LEAD_S = 1.0
-"""A true step counts as *in view* when both legs were trackable for this long (s) before its heel
-strike: the tracker's re-acquisition allowance (issue: recover within 1 s)."""
+"""A true step counts as *in view* when the user was in view for this long (s) before its heel strike:
+the tracker's re-acquisition allowance (issue: recover within 1 s)."""
 
 
-def steps_in_view(step_stamps: np.ndarray, stamps: np.ndarray, trackable: np.ndarray, *,
+def steps_in_view(step_stamps: np.ndarray, stamps: np.ndarray, present: np.ndarray, *,
                   lead_s: float = IN_VIEW_LEAD_S) -> np.ndarray:
-    """``(S,)`` True for steps (heel-strike ``step_stamps``) preceded by ``lead_s`` s of trackable frames.
+    """``(S,)`` True for steps (heel-strike ``step_stamps``) preceded by ``lead_s`` s with the user in view.
 
-    ``stamps`` ``(T,)`` increasing frame times, ``trackable`` ``(T,)`` both legs in view.  A step
-    before the first frame, after the last, or closer than ``lead_s`` to the session start is
-    not in view (no evidence it could be seen).
+    ``stamps`` ``(T,)`` increasing frame times, ``present`` ``(T,)`` the user in view (a leg hidden
+    behind the other one still counts: that is the tracker's job).  A step before the first frame,
+    after the last, or closer than ``lead_s`` to the session start is not in view (no evidence it
+    could be seen).
     """
     step_stamps = np.asarray(step_stamps, dtype=float)
     stamps = np.asarray(stamps, dtype=float)
-    ok = np.asarray(trackable, dtype=bool)
+    ok = np.asarray(present, dtype=bool)
     out = np.zeros(step_stamps.shape, dtype=bool)
     for i, t in enumerate(step_stamps):
         if t - lead_s < stamps[0] - 1e-9 or t > stamps[-1] + 1e-9:
@@ -100,6 +101,11 @@ class Rendered:
         """(T,) True where both legs show at least ``min_pixels`` valid pixels (at full 640x480 scale)."""
         return (self.visible_pixels >= min_pixels).all(axis=1)
 
+    def present(self, min_pixels: int = 200) -> np.ndarray:
+        """(T,) True where at least one leg shows ``min_pixels`` valid pixels: the user is in view (the
+        other leg may be hidden behind it)."""
+        return (self.visible_pixels >= min_pixels).any(axis=1)
+
 
 def render(session: Any, max_frames: int | None = None) -> Rendered:
     """Render (once) a session's frames, to score several configurations on the same data."""
@@ -115,11 +121,19 @@ def render(session: Any, max_frames: int | None = None) -> Rendered:
     return Rendered(frames=frames, visible_pixels=visible, seconds=time.perf_counter() - t0)
 
 
+def _min_pixels(session: Any) -> int:
+    intr = session.intrinsics
+    return max(20, int(200 * (intr.width * intr.height) / (640 * 480)))
+
+
 def trackable_frames(session: Any, rendered: Rendered) -> np.ndarray:
     """``(T,)`` frames where both legs are in view (200 valid pixels each at 640x480, scaled to the camera)."""
-    intr = session.intrinsics
-    scale = (intr.width * intr.height) / (640 * 480)
-    return rendered.trackable(min_pixels=max(20, int(200 * scale)))
+    return rendered.trackable(min_pixels=_min_pixels(session))
+
+
+def present_frames(session: Any, rendered: Rendered) -> np.ndarray:
+    """``(T,)`` frames where the user is in view (at least one leg with 200 valid pixels, scaled)."""
+    return rendered.present(min_pixels=_min_pixels(session))
 
 
 @dataclass
@@ -220,7 +234,8 @@ def evaluate(session: Any, *, preset: str = "default", cue: str | None = None, s
     score.matched_steps = len(pairs)
     score.precision = len(pairs) / len(steps) if steps else float("nan")
     score.recall = len(pairs) / len(gt) if gt else float("nan")
-    in_view = steps_in_view(np.array([g.stamp for g in gt]), np.asarray(session.stamps[:n]), vis) if gt else np.zeros(0, bool)
+    present = present_frames(session, rendered)[:n]
+    in_view = steps_in_view(np.array([g.stamp for g in gt]), np.asarray(session.stamps[:n]), present) if gt else np.zeros(0, bool)
     score.gt_steps_in_view = int(in_view.sum())
     score.matched_in_view = int(sum(1 for t, _ in pairs if in_view[t]))
     score.recall_in_view = score.matched_in_view / score.gt_steps_in_view if score.gt_steps_in_view else float("nan")

@@ -52,6 +52,7 @@ class SessionRun:
     est: np.ndarray  # (T, 2, 5, 3) tracked LEG_POINTS, NaN without an estimate
     truth: np.ndarray  # (T, 2, 5, 3)
     trackable: np.ndarray  # (T,) both legs in view
+    present: np.ndarray  # (T,) the user in view (at least one leg)
     floor_normal: np.ndarray  # (3,) true floor normal (up)
     floor_offset: float
     gt: list[Step]
@@ -97,12 +98,13 @@ def _rendered(session: Any, cache: Path | None, name: str) -> Any:
 def run_session(scenario: str, seed: int, *, duration: float, tracker_seeds: tuple[int, ...],
                 overrides: dict[str, Any] | None = None, cache: Path | None = None) -> list[SessionRun]:
     """Generate (or load the cached render of) one session and track it once per tracker seed."""
-    from walker_gait.bench.endtoend import _gt_as_steps, run_pipeline, trackable_frames
+    from walker_gait.bench.endtoend import _gt_as_steps, present_frames, run_pipeline, trackable_frames
     from walker_gait.bench.gait import match_steps
 
     session = _session(scenario, seed, duration)
     rendered = _rendered(session, cache, f"{scenario}_{seed}_{duration:g}s")
     trackable = trackable_frames(session, rendered)
+    present = present_frames(session, rendered)
     n = len(rendered.frames)
     stamps = np.asarray(session.stamps[:n], dtype=float)
     gt = [s for s in _gt_as_steps(session) if s.stamp <= stamps[-1]]
@@ -114,7 +116,8 @@ def run_session(scenario: str, seed: int, *, duration: float, tracker_seeds: tup
         out.append(SessionRun(
             key=f"{scenario}:{seed}", tracker_seed=ts, stamps=stamps,
             est=np.stack([p.points for p in run.poses]), truth=np.asarray(session.leg_points[:n], dtype=float),
-            trackable=trackable, floor_normal=np.asarray(floor.normal, dtype=float), floor_offset=float(floor.offset),
+            trackable=trackable, present=present, floor_normal=np.asarray(floor.normal, dtype=float),
+            floor_offset=float(floor.offset),
             gt=gt, det=run.steps, pairs=pairs,
             tracker_ms=float(np.mean(run.tracker_ms[1:])) if n > 1 else float("nan")))
     return out
@@ -178,7 +181,7 @@ def summarise(runs: list[SessionRun]) -> dict[str, Any]:
             gt += len(r.gt)
             det += len(r.det)
             matched += len(r.pairs)
-            iv = steps_in_view(np.array([s.stamp for s in r.gt]), r.stamps, r.trackable) if r.gt else np.zeros(0, bool)
+            iv = steps_in_view(np.array([s.stamp for s in r.gt]), r.stamps, r.present) if r.gt else np.zeros(0, bool)
             in_view += int(iv.sum())
             matched_in_view += sum(1 for t, _ in r.pairs if iv[t])
         e = np.concatenate(err_all) if err_all else np.zeros((0, 2, 5))
@@ -224,7 +227,8 @@ def oracle(runs: list[SessionRun], points: tuple[int, ...]) -> dict[str, float]:
         det = run_analyzer(poses, floor).steps
         pairs, _, _ = match_steps(r.gt, det)
         subs.append(SessionRun(key=r.key, tracker_seed=r.tracker_seed, stamps=r.stamps, est=r.est, truth=r.truth,
-                               trackable=r.trackable, floor_normal=r.floor_normal, floor_offset=r.floor_offset,
+                               trackable=r.trackable, present=r.present, floor_normal=r.floor_normal,
+                               floor_offset=r.floor_offset,
                                gt=r.gt, det=det, pairs=pairs, tracker_ms=r.tracker_ms))
     out = {"matched_steps": float(sum(len(s.pairs) for s in subs))}
     out.update(_step_errors(subs))

@@ -130,6 +130,7 @@ def elliptic_section_radii(
     norm = np.linalg.norm(perp, axis=-1, keepdims=True)
     perp = np.where(norm > 1e-6, perp / np.maximum(norm, 1e-9), lateral)  # axis along the line of sight
     toward = np.cross(perp, axis)  # in the section plane, perpendicular to perp, facing the camera
+
     def extent(d: FloatArray) -> FloatArray:
         cl = np.einsum("psk,psk->ps", d, lateral)[..., None]
         cu = np.einsum("psk,psk->ps", d, up)[..., None]
