@@ -35,7 +35,7 @@ from typing import Any
 
 import numpy as np
 
-from walker_gait.core.types import ANKLE, HEEL, TOE, LegPose, Step, TrackStatus
+from walker_gait.core.types import ANKLE, HEEL, LEG_POINTS, TOE, LegPose, Step, TrackStatus
 
 SCENARIOS = ("normal", "slow_elderly", "baggy_trousers", "occlusion", "asymmetric", "stop_and_go", "absent_start",
              "different_camera")
@@ -187,12 +187,11 @@ def summarise(runs: list[SessionRun]) -> dict[str, Any]:
         e = np.concatenate(err_all) if err_all else np.zeros((0, 2, 5))
         g = np.concatenate(good_all) if good_all else np.zeros((0, 2, 5))
         per_frame = np.nanmean(e, axis=(1, 2)) if len(e) else np.zeros(0)
-        names = ("hip", "knee", "ankle", "heel", "toe")
         out: dict[str, Any] = {
             "sessions": len(runs),
-            "joint_err_cm": {p: float(np.nanmean(e[:, :, k]) * 100) for k, p in enumerate(names)},
+            "joint_err_cm": {p: float(np.nanmean(e[:, :, k]) * 100) for k, p in enumerate(LEG_POINTS)},
             "frames_over_10cm_pct": float(np.mean(~(per_frame <= 0.10)) * 100) if len(e) else math.nan,
-            "good_frame_err_cm": {p: float(np.nanmean(g[:, :, k]) * 100) for k, p in enumerate(names) if k >= ANKLE},
+            "good_frame_err_cm": {p: float(np.nanmean(g[:, :, k]) * 100) for k, p in enumerate(LEG_POINTS) if k >= ANKLE},
         }
     fl = np.concatenate(flen) if flen else np.zeros(0)
     out["foot_length_bias_cm"] = float(np.nanmedian(fl) * 100) if np.isfinite(fl).any() else math.nan
