@@ -37,7 +37,7 @@ class Score:
     matched_steps: int = 0
     precision: float = float("nan")
     recall: float = float("nan")
-    gt_steps_in_view: int = 0  # true steps whose heel strike follows >= IN_VIEW_LEAD_S s of both legs in view
+    gt_steps_in_view: int = 0  # true steps whose heel strike follows >= IN_VIEW_LEAD_S s with the user in view
     matched_in_view: int = 0
     recall_in_view: float = float("nan")
     step_length_err_cm: tuple[float, float] = (float("nan"), float("nan"))  # mean, SD of |error|

@@ -29,7 +29,7 @@ import os
 import sys
 import time
 from concurrent.futures import ProcessPoolExecutor
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -225,10 +225,7 @@ def oracle(runs: list[SessionRun], points: tuple[int, ...]) -> dict[str, float]:
         floor = FloorPlane(normal=r.floor_normal, offset=r.floor_offset, rms=0.0, inlier_ratio=1.0, valid=True)
         det = run_analyzer(poses, floor).steps
         pairs, _, _ = match_steps(r.gt, det)
-        subs.append(SessionRun(key=r.key, tracker_seed=r.tracker_seed, stamps=r.stamps, est=r.est, truth=r.truth,
-                               trackable=r.trackable, present=r.present, floor_normal=r.floor_normal,
-                               floor_offset=r.floor_offset,
-                               gt=r.gt, det=det, pairs=pairs, tracker_ms=r.tracker_ms))
+        subs.append(replace(r, det=det, pairs=pairs))
     out = {"matched_steps": float(sum(len(s.pairs) for s in subs))}
     out.update(_step_errors(subs))
     return out

@@ -308,8 +308,7 @@ class _Chain:
     def sole_heights(self) -> FloatArray:
         """``(2, P)`` lowest sole height of each foot (see :func:`sole_heights`)."""
         z = self.ends[:, 2]
-        half_width = self.radii[:, :, 2, 0].T * (FOOT_HALF_WIDTH / FOOT_HEEL_RADIUS)  # (2, P)
-        return _sole_heights(z[_FOOT_START], z[_FOOT_END], half_width, self.lateral[2])
+        return _sole_heights(z[_FOOT_START], z[_FOOT_END], foot_half_width(self.radii[:, :, 2, 0].T), self.lateral[2])
 
 
 def _turn_axes(axes: list[FloatArray], i: int, j: int, c: FloatArray, s: FloatArray) -> None:
@@ -426,6 +425,11 @@ def joint_angles(state: FloatArray) -> FloatArray:
     return np.asarray(state, dtype=np.float64)[..., L.ANGLES].copy()
 
 
+def foot_half_width(heel_radius: FloatArray) -> FloatArray:
+    """``FOOT_HALF_WIDTH * len_foot`` from the foot's heel radius (``FOOT_HEEL_RADIUS * len_foot``)."""
+    return heel_radius * (FOOT_HALF_WIDTH / FOOT_HEEL_RADIUS)
+
+
 def _sole_heights(z_heel: FloatArray, z_toe: FloatArray, half_width: FloatArray, lateral_z: FloatArray) -> FloatArray:
     """Lowest sole corner height from the foot axis end heights, the sole's half-width and the lateral
     axis z (broadcast)."""
@@ -445,8 +449,7 @@ def sole_heights(kin: Kinematics) -> FloatArray:
     ``min(z_heel, z_toe) - |half-width * lateral_z|``.
     """
     z = kin.segments[:, :, 2, :, 2]
-    half_width = kin.radii[:, :, 2, 0] * (FOOT_HALF_WIDTH / FOOT_HEEL_RADIUS)
-    return _sole_heights(z[..., 0], z[..., 1], half_width, kin.foot_lateral[:, :, 2])
+    return _sole_heights(z[..., 0], z[..., 1], foot_half_width(kin.radii[:, :, 2, 0]), kin.foot_lateral[:, :, 2])
 
 
 def _dot3(u: FloatArray, v: FloatArray) -> FloatArray:

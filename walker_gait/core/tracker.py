@@ -262,8 +262,7 @@ def camera_segments(
         return seg_c, rad, rad
     feet = slice(2, None, 3)  # the foot of each leg
     lateral = kin.foot_lateral[:, list(legs)] @ body.body_to_cam_rot.T  # (P, nl, 3)
-    foot_len = np.linalg.norm(kin.points[:, list(legs), TOE] - kin.points[:, list(legs), HEEL], axis=-1)
-    widths = np.repeat((foot_len * lm.FOOT_HALF_WIDTH)[..., None], 2, axis=-1)
+    widths = np.repeat(lm.foot_half_width(rad[:, feet, :1]), 2, axis=-1)  # (P, nl, 2), constant along the foot
     sil_f, toward_f = elliptic_section_radii(seg_c[:, feet], lateral, rad[:, feet], widths)
     toward, sil = rad.copy(), rad.copy()
     toward[:, feet] = toward_f
