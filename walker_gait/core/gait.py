@@ -29,7 +29,9 @@ Method in short (all geometry in the floor plane of the *walker* frame, see ``ty
    still planted (double support), so the step vector is the mean over the double-support
    frames of ``heel_B - (toe_A + o_A)``, where ``o_A`` is A's heel-minus-toe offset measured
    while A was flat on the floor.  Both terms are measured in the same frame at the same
-   instant, so the walker's own motion cancels exactly.  The component across the line of
+   instant, so the walker's own motion cancels exactly; where the tracker reports A's foot hidden
+   (late in its stance, behind B's leg), ``toe_A`` continues the drift seen while it was in view
+   (:meth:`GaitAnalyzer._planted_xy`).  The component across the line of
    progression (step width) comes from the ankles instead (``ankle + heel-ankle offset`` of each
    foot, see :meth:`GaitAnalyzer._ankle_vector`): far less sensitive to foot yaw errors.  Step vectors are chained into a
    footprint map; the line of progression is the mean direction of the last
@@ -134,6 +136,11 @@ class GaitConfig:
     """Quality factor applied to DEGRADED / low-confidence / invalid-floor frames."""
     double_support_max_s: float = 0.6
     """Longest time (s) after a heel strike used to average the step vector."""
+    planted_fit_sigma_s: float = 0.3
+    """Width (s, Gaussian sigma) of the visibility-weighted local-linear fit that gives the trailing foot's
+    toe for the step vector where the tracker reports that foot hidden (0 = always the raw positions)."""
+    planted_fit_window_s: float = 1.5
+    """History (s, bounded by that foot's own heel strike) the planted-foot fit may use."""
     progression_strides: int = 4
     """Number of recent strides averaged for the line of progression."""
     max_step_time_s: float = 2.5
@@ -358,7 +365,8 @@ class GaitAnalyzer:
     their interpolated true times.
     """
 
-    _BUFFERS = ("_t", "_q", "_valid", "_raw", "_ankle", "_rot", "_off", "_smooth", "_track", "_ground", "_weight")
+    _BUFFERS = ("_t", "_q", "_valid", "_raw", "_ankle", "_vis", "_rot", "_off", "_smooth", "_track", "_ground",
+                "_weight")
     """Per-frame arrays (first axis = buffer index), grown and trimmed together."""
 
     def __init__(self, config: GaitConfig | None = None) -> None:
@@ -370,6 +378,7 @@ class GaitAnalyzer:
         self._valid = np.zeros(cap, dtype=bool)
         self._raw = np.full((cap, 2, 2, 3), np.nan)  # walker frame [foot, heel/toe, xyz]
         self._ankle = np.full((cap, 2, 3), np.nan)  # walker frame [foot, xyz]
+        self._vis = np.ones((cap, 2))  # foot segment visibility reported by the tracker (1 when unknown)
         self._rot = np.zeros((cap, 3, 3))
         self._off = np.zeros((cap, 3))
         self._smooth = np.full((cap, 2, 2, 3), np.nan)
@@ -475,7 +484,12 @@ class GaitAnalyzer:
         if self._n and stamp <= self._t[self._n - 1]:
             raise GaitInputError(f"stamps must increase: {stamp} after {self._t[self._n - 1]}")
         q = self.frame_quality(pose, floor)
-        self._append(stamp, q, pts, floor)
+        vis = np.ones(2)
+        if pose.visibility is not None:
+            v = np.asarray(pose.visibility, dtype=np.float64)
+            if v.shape == (2, 3):
+                vis = np.where(np.isfinite(v[:, 2]), np.clip(v[:, 2], 0.0, 1.0), 1.0)
+        self._append(stamp, q, pts, floor, vis)
         self._advance(horizon=stamp - self.config.smoothing_half_window_s)
         return self._drain()
 
@@ -513,7 +527,7 @@ class GaitAnalyzer:
         for name in self._BUFFERS:
             old = getattr(self, name)
             new = np.zeros((cap,) + old.shape[1:], dtype=old.dtype)
-            if old.dtype.kind == "f" and name not in ("_t", "_q", "_rot", "_off", "_weight"):
+            if old.dtype.kind == "f" and name not in ("_t", "_q", "_vis", "_rot", "_off", "_weight"):
                 new[...] = np.nan
             new[: self._n] = old[: self._n]
             setattr(self, name, new)
@@ -537,7 +551,7 @@ class GaitAnalyzer:
         for p in self._pending_hs:
             p.k_det -= cut
 
-    def _append(self, stamp: float, q: float, pts: FloatArray, floor: FloorPlane) -> None:
+    def _append(self, stamp: float, q: float, pts: FloatArray, floor: FloorPlane, vis: FloatArray) -> None:
         if self._n >= self._t.size:
             self._trim()
             if self._n >= self._t.size:
@@ -547,6 +561,7 @@ class GaitAnalyzer:
         self._t[k] = stamp
         self._q[k] = q
         self._valid[k] = q > 0
+        self._vis[k] = vis
         self._smooth[k] = np.nan
         self._track[k] = np.nan
         self._ground[k] = np.nan
@@ -946,6 +961,50 @@ class GaitAnalyzer:
             self._pending_steps[-1].t_end = self._feet[b].to[-1]
         self._feet[a].hs.append(t_hs)
 
+    def _planted_xy(self, idx: NDArray[np.intp], series: FloatArray, f: int, t_from: float) -> FloatArray:
+        """``(len(idx), 2)`` position of a point of planted foot ``f`` at frames ``idx``.
+
+        ``series`` is the point's per-frame xy (walker frame, first axis = buffer index).  While a foot is
+        planted, its points drift through the walker frame only with the walker's smooth motion.  Late in
+        its stance the trailing foot is often hidden behind the leading leg; the tracker, which then
+        carries it by its motion model, reports it hidden (``LegPose.visibility``) and places it
+        centimetres off, mostly ahead (on synthetic sessions with baggy trousers or crossing legs, +8 to
+        +16 cm at the other foot's heel strike).  The fit is local-linear over the foot's planted frames
+        since ``t_from`` (toe on the floor), weighted by a Gaussian in time (``planted_fit_sigma_s``),
+        the frame quality and the square of the foot's visibility, so where the foot is hidden it
+        continues the drift seen before.  The result is ``v² x raw + (1 - v²) x fit`` with ``v`` the
+        foot's visibility at that frame: a foot in view keeps its raw position, poses without visibility
+        count as in view.  Raw positions when the fit is off or has too little data.
+        """
+        raw = series[idx]
+        sigma = self.config.planted_fit_sigma_s
+        if sigma <= 0 or idx.size == 0:
+            return raw
+        src = self._valid_range(t_from, float(self._t[idx[-1]]))
+        src = src[(self._weight[src, f, _T] >= 0.5) & np.all(np.isfinite(series[src]), axis=1)]
+        if src.size < 3:
+            return raw
+        ts = self._t[src]
+        xy = series[src]
+        base = np.maximum(self._vis[src, f], 0.05) ** 2 * np.maximum(self._q[src], 1e-3)
+        out = raw.copy()
+        for i, k in enumerate(idx):
+            dt = ts - self._t[k]
+            w = base * np.exp(-0.5 * (dt / sigma) ** 2)
+            sw = float(w.sum())
+            if sw <= 1e-12:
+                continue
+            mt = float(w @ dt) / sw
+            var = float(w @ (dt - mt) ** 2) / sw
+            mean = (w @ xy) / sw
+            if var < 1e-6:  # all weight on one instant: no slope
+                out[i] = mean
+                continue
+            slope = (w * (dt - mt)) @ (xy - mean) / (sw * var)
+            out[i] = mean - mt * slope  # value at dt = 0
+        alpha = self._vis[idx, f][:, None] ** 2  # a fully seen foot keeps its raw position
+        return alpha * raw + (1.0 - alpha) * out
+
     def _ankle_vector(self, idx: NDArray[np.intp], a: int, b: int) -> FloatArray | None:
         """Heel-to-heel vector (xy) of feet ``a`` and ``b`` from their ankles over frames ``idx``.
 
@@ -987,7 +1046,12 @@ class GaitAnalyzer:
             fallback = True
         lateral = None  # the step vector's component across the line of progression, from the ankles
         if idx.size:
-            v = self._raw[idx, a, _H, :2] - self._raw[idx, b, _T, :2] - o
+            # b is the trailing foot, often hidden behind the leading leg by now: its toe comes from the
+            # frames in which it was seen (see _planted_xy)
+            hs_b = [t for t in self._feet[b].hs if t < ps.t_hs]
+            t_from = max(hs_b[-1] if hs_b else -math.inf, ps.t_hs - c.planted_fit_window_s)
+            toe_b = self._planted_xy(idx, self._raw[:, b, _T, :2], b, t_from)
+            v = self._raw[idx, a, _H, :2] - toe_b - o
             d = v.mean(axis=0)
             lateral = self._ankle_vector(idx, a, b)
         else:  # no frame inside the double support (very short one): nearest frame
