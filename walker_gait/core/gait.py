@@ -1045,11 +1045,11 @@ class GaitAnalyzer:
             o = np.array([-0.0, 0.0])
             fallback = True
         lateral = None  # the step vector's component across the line of progression, from the ankles
+        # b is the trailing foot, often hidden behind the leading leg by now: its toe comes from the frames
+        # in which it was seen (see _planted_xy)
+        hs_b = [t for t in self._feet[b].hs if t < ps.t_hs]
+        t_from = max(hs_b[-1] if hs_b else -math.inf, ps.t_hs - c.planted_fit_window_s)
         if idx.size:
-            # b is the trailing foot, often hidden behind the leading leg by now: its toe comes from the
-            # frames in which it was seen (see _planted_xy)
-            hs_b = [t for t in self._feet[b].hs if t < ps.t_hs]
-            t_from = max(hs_b[-1] if hs_b else -math.inf, ps.t_hs - c.planted_fit_window_s)
             toe_b = self._planted_xy(idx, self._raw[:, b, _T, :2], b, t_from)
             v = self._raw[idx, a, _H, :2] - toe_b - o
             d = v.mean(axis=0)
@@ -1058,7 +1058,8 @@ class GaitAnalyzer:
             near = self._valid_range(ps.t_hs - 0.1, ps.t_hs + 0.1)
             if near.size:
                 kn = near[int(np.argmin(np.abs(self._t[near] - ps.t_hs)))]
-                d = self._raw[kn, a, _H, :2] - self._raw[kn, b, _T, :2] - o
+                toe_b = self._planted_xy(np.array([kn]), self._raw[:, b, _T, :2], b, t_from)[0]
+                d = self._raw[kn, a, _H, :2] - toe_b - o
             else:  # tracking gap around the heel strike
                 d = np.full(2, np.nan)
         if lateral is not None and np.all(np.isfinite(d)):
