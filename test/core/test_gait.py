@@ -210,9 +210,13 @@ def test_visible_feet_keep_their_raw_positions() -> None:
 
 @pytest.mark.parametrize("name", ["normal", "slow", "stop_and_go", "variable"])
 def test_noise_1cm_robustness(name: str) -> None:
+    """1 cm noise on every point: detection, step length/width and heel-strike timing hold.  The default times
+    heel strikes by the heel's horizontal arrest alone (measured 1.4-1.6 frames here); the heel's height,
+    sharper on exact kinematics but late on tracked heels (see test_lagging_heel_height_...), gets them
+    within a frame."""
     spec = replace(SCENARIOS[name], noise_m=0.01)
     tp = gt = det = 0
-    sl, sw, hs = [], [], []
+    sl, sw, hs, hs_height = [], [], [], []
     for seed in range(2):
         sim, ga, r = _run(spec, seed)
         tp += r["matched"]
@@ -221,10 +225,13 @@ def test_noise_1cm_robustness(name: str) -> None:
         sl.append(r["step_length_mae"])
         sw.append(r["step_width_mae"])
         hs.append(r["hs_timing_median_abs_frames"])
+        ga_h = run_analyzer(sim.poses, sim.floor, config=GaitConfig(hs_height_weight=1.0))
+        hs_height.append(evaluate_gait(sim.steps, sim.events, ga_h, fps=spec.fps)["hs_timing_median_abs_frames"])
     assert tp / det >= 0.98 and tp / gt >= 0.98
     assert np.mean(sl) <= 0.015
     assert np.mean(sw) <= 0.015
-    assert np.median(hs) <= 1.0
+    assert np.median(hs) <= 1.75
+    assert np.median(hs_height) <= 1.0
 
 
 # ---------------------------------------------------------------------------- no phantom steps
@@ -323,14 +330,36 @@ def test_degraded_frames_lower_confidence() -> None:
 def test_subframe_heel_strike_timing() -> None:
     # step time 0.61 s at 30 fps: heel strikes fall at every sub-frame phase
     spec = GaitSimSpec(step_time=(0.61, 0.61), bouts=(("stand", 1.0), ("walk", 14), ("stand", 1.0)))
-    sim, ga, r = _run(spec)
-    ep, _, _ = match_events(sim.events, ga.events, kind=EventKind.HEEL_STRIKE)
+    sim = simulate_gait(spec, rng=np.random.default_rng(0))
     g = [e for e in sim.events if e.kind == EventKind.HEEL_STRIKE]
-    d = [e for e in ga.events if e.kind == EventKind.HEEL_STRIKE]
-    err = np.array([d[j].stamp - g[i].stamp for i, j in ep])
-    assert np.median(np.abs(err)) < 0.7 / spec.fps  # measured 0.54 frame on this model
-    frac = np.array([(e.stamp * spec.fps) % 1.0 for e in d])
-    assert np.ptp(frac) > 0.5  # stamps are not snapped to frames
+    # default: the heel's horizontal arrest; 1: with the heel's height, sharper on exact kinematics
+    for weight, limit in ((0.0, 1.0), (1.0, 0.7)):  # measured 0.76 / 0.54 frame on this model
+        ga = run_analyzer(sim.poses, sim.floor, config=GaitConfig(hs_height_weight=weight))
+        ep, _, _ = match_events(sim.events, ga.events, kind=EventKind.HEEL_STRIKE)
+        d = [e for e in ga.events if e.kind == EventKind.HEEL_STRIKE]
+        err = np.array([d[j].stamp - g[i].stamp for i, j in ep])
+        assert len(ep) == len(g)
+        assert np.median(np.abs(err)) < limit / spec.fps
+        frac = np.array([(e.stamp * spec.fps) % 1.0 for e in d])
+        assert np.ptp(frac) > 0.5  # stamps are not snapped to frames
+
+
+def test_lagging_heel_height_does_not_delay_heel_strikes() -> None:
+    """A tracked heel comes down late (its last centimetres are below the segmentation's floor cut): here its
+    height lags by 3 frames, its horizontal position does not.  The default times the strike by the horizontal
+    arrest and stays within a frame; weighting the height in (1.0) makes it late."""
+    spec = SCENARIOS["normal"]
+    sim = simulate_gait(spec, rng=np.random.default_rng(0))
+    rot, off = sim.floor.walker_transform()
+    walker = np.array([p.points @ rot.T + off for p in sim.poses])
+    walker[3:, :, HEEL, 2] = walker[:-3, :, HEEL, 2].copy()
+    poses = [replace(p, points=(w - off) @ rot) for p, w in zip(sim.poses, walker, strict=True)]
+    default = evaluate_gait(sim.steps, sim.events, run_analyzer(poses, sim.floor), fps=spec.fps)
+    height = evaluate_gait(sim.steps, sim.events, run_analyzer(poses, sim.floor, config=GaitConfig(hs_height_weight=1.0)),
+                           fps=spec.fps)
+    assert default["precision"] == 1.0 and default["recall"] == 1.0
+    assert default["hs_timing_median_abs_frames"] < 1.0  # measured 0.76
+    assert height["hs_timing_median_abs_frames"] > 1.3  # measured 1.52
 
 
 def test_online_latency_is_bounded() -> None:
