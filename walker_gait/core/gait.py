@@ -32,7 +32,7 @@ Method in short (all geometry in the floor plane of the *walker* frame, see ``ty
    while A was flat on the floor.  Both terms are measured in the same frame at the same
    instant, so the walker's own motion cancels exactly; where the tracker reports A's foot hidden
    (late in its stance, behind B's leg), ``toe_A`` continues the drift seen while it was in view
-   (:meth:`GaitAnalyzer._planted_xy`).  The component across the line of
+   (:meth:`GaitAnalyzer._planted_toe`).  The component across the line of
    progression (step width) comes from the ankles instead (``ankle + heel-ankle offset`` of each
    foot, see :meth:`GaitAnalyzer._ankle_vector`): far less sensitive to foot yaw errors.  Step vectors are chained into a
    footprint map; the line of progression is the mean direction of the last
@@ -957,9 +957,11 @@ class GaitAnalyzer:
         horiz = np.where(bad, np.nan, horiz)
         # the heel's height channel counts `hs_height_weight` times (residuals scale with it); without
         # the horizontal reference (other foot not planted) the height alone times the strike
-        chans = [self._raw[idx, a, _H, 2] * c.hs_height_weight, horiz]
+        height = self._raw[idx, a, _H, 2]
         if np.isfinite(horiz).sum() < 4:
-            chans = [self._raw[idx, a, _H, 2]]
+            chans = [height]
+        else:
+            chans = [horiz] if c.hs_height_weight <= 0 else [height * c.hs_height_weight, horiz]
         tc_lo = max(lo_t, p.t_to if math.isfinite(p.t_to) else lo_t)
         t_hs = _hinge_time(tt, chans, rising=False, tc_lo=tc_lo, tc_hi=p.t_det)
         if not math.isfinite(t_hs):
@@ -974,11 +976,10 @@ class GaitAnalyzer:
             self._pending_steps[-1].t_end = self._feet[b].to[-1]
         self._feet[a].hs.append(t_hs)
 
-    def _planted_xy(self, idx: NDArray[np.intp], series: FloatArray, f: int, t_from: float) -> FloatArray:
-        """``(len(idx), 2)`` position of a point of planted foot ``f`` at frames ``idx``.
+    def _planted_toe(self, idx: NDArray[np.intp], f: int, t_from: float) -> FloatArray:
+        """``(len(idx), 2)`` xy (walker frame) of the toe of planted foot ``f`` at frames ``idx``.
 
-        ``series`` is the point's per-frame xy (walker frame, first axis = buffer index).  While a foot is
-        planted, its points drift through the walker frame only with the walker's smooth motion.  Late in
+        While a foot is planted, its points drift through the walker frame only with the walker's smooth motion.  Late in
         its stance the trailing foot is often hidden behind the leading leg; the tracker, which then
         carries it by its motion model, reports it hidden (``LegPose.visibility``) and places it
         centimetres off, mostly ahead (on synthetic sessions with baggy trousers or crossing legs, +8 to
@@ -989,6 +990,7 @@ class GaitAnalyzer:
         foot's visibility at that frame: a foot in view keeps its raw position, poses without visibility
         count as in view.  Raw positions when the fit is off or has too little data.
         """
+        series = self._raw[:, f, _T, :2]
         raw = series[idx]
         sigma = self.config.planted_fit_sigma_s
         if sigma <= 0 or idx.size == 0:
@@ -1059,11 +1061,11 @@ class GaitAnalyzer:
             fallback = True
         lateral = None  # the step vector's component across the line of progression, from the ankles
         # b is the trailing foot, often hidden behind the leading leg by now: its toe comes from the frames
-        # in which it was seen (see _planted_xy)
+        # in which it was seen (see _planted_toe)
         hs_b = [t for t in self._feet[b].hs if t < ps.t_hs]
         t_from = max(hs_b[-1] if hs_b else -math.inf, ps.t_hs - c.planted_fit_window_s)
         if idx.size:
-            toe_b = self._planted_xy(idx, self._raw[:, b, _T, :2], b, t_from)
+            toe_b = self._planted_toe(idx, b, t_from)
             v = self._raw[idx, a, _H, :2] - toe_b - o
             d = v.mean(axis=0)
             lateral = self._ankle_vector(idx, a, b)
@@ -1071,7 +1073,7 @@ class GaitAnalyzer:
             near = self._valid_range(ps.t_hs - 0.1, ps.t_hs + 0.1)
             if near.size:
                 kn = near[int(np.argmin(np.abs(self._t[near] - ps.t_hs)))]
-                toe_b = self._planted_xy(np.array([kn]), self._raw[:, b, _T, :2], b, t_from)[0]
+                toe_b = self._planted_toe(np.array([kn]), b, t_from)[0]
                 d = self._raw[kn, a, _H, :2] - toe_b - o
             else:  # tracking gap around the heel strike
                 d = np.full(2, np.nan)
