@@ -69,6 +69,10 @@ def test_input_validation() -> None:
         ga.update(LegPose(stamp=1.0, points=np.ones((2, 5, 3))), floor)
     with pytest.raises(GaitInputError):
         GaitConfig(rest_speed_mps=-1.0)
+    for bad in ({"planted_fit_sigma_s": -0.1}, {"planted_fit_window_s": 0.0}, {"hs_height_weight": math.nan}):
+        with pytest.raises(GaitInputError, match=next(iter(bad))):
+            GaitConfig(**bad)
+    GaitConfig(planted_fit_sigma_s=0.0, hs_height_weight=0.0)  # 0 = off
 
 
 def test_frame_quality_rule() -> None:

@@ -145,6 +145,7 @@ class PipelineRun:
     steps: list[Step]
     timing_ms: dict[str, float]  # summed over frames, per STAGES entry
     tracker_ms: list[float]  # per frame
+    floors: list[Any] = field(default_factory=list)  # FloorPlane per frame, as the pipeline estimated it
 
 
 def run_pipeline(session: Any, rendered: Rendered, *, preset: str = "default", cue: str | None = None, seed: int = 0,
@@ -175,6 +176,7 @@ def run_pipeline(session: Any, rendered: Rendered, *, preset: str = "default", c
             run.timing_ms[k] += res.timings_ms[k]
         run.tracker_ms.append(res.timings_ms["tracker"])
         run.poses.append(res.pose)
+        run.floors.append(res.floor)
         run.steps.extend(res.steps)
     run.steps.extend(proc.finish()[1])
     return run

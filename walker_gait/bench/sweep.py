@@ -11,6 +11,12 @@ the same way.
 ``python -m walker_gait.bench.sweep --out out/sweep/new --override '{"elliptic_foot": false}'`` and
 ``python -m walker_gait.bench.sweep --compare out/sweep/base out/sweep/new``.
 
+Every sweep also keeps its runs, tracked poses and the pipeline's floors included, in ``runs.pkl``; a change
+to the gait analyzer alone is then judged on those same poses in seconds, without tracking again:
+``python -m walker_gait.bench.sweep --reanalyse out/sweep/base --out out/sweep/gait_new``
+(``--gait-override`` sets GaitConfig fields).  The pipeline feeds its analyzer exactly these poses and floors,
+so with the analyzer unchanged the figures are the sweep's own.
+
 Figures (``summary.json``; lengths in cm): joint errors over frames with both legs in view, the share
 of those frames with a mean error > 10 cm, errors on the *well-tracked* frames (mean error ≤ 10 cm:
 little moved by the chaos), the model foot's length bias, step detection (recall also over the steps
@@ -26,16 +32,17 @@ import argparse
 import json
 import math
 import os
+import pickle
 import sys
 import time
 from concurrent.futures import ProcessPoolExecutor
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from walker_gait.core.types import ANKLE, HEEL, LEG_POINTS, TOE, LegPose, Step, TrackStatus
+from walker_gait.core.types import ANKLE, HEEL, LEG_POINTS, TOE, FloorPlane, LegPose, Step, TrackStatus
 
 SCENARIOS = ("normal", "slow_elderly", "baggy_trousers", "occlusion", "asymmetric", "stop_and_go", "absent_start",
              "different_camera")
@@ -59,6 +66,8 @@ class SessionRun:
     det: list[Step]
     pairs: list[tuple[int, int]]  # (gt index, det index)
     tracker_ms: float  # mean per frame after the first
+    poses: list[LegPose] = field(default_factory=list, repr=False)  # the pipeline's tracked poses, per frame
+    floors: list[FloorPlane] = field(default_factory=list, repr=False)  # the floor the pipeline estimated, per frame
 
     @property
     def scenario(self) -> str:
@@ -119,8 +128,41 @@ def run_session(scenario: str, seed: int, *, duration: float, tracker_seeds: tup
             trackable=trackable, present=present, floor_normal=np.asarray(floor.normal, dtype=float),
             floor_offset=float(floor.offset),
             gt=gt, det=run.steps, pairs=pairs,
-            tracker_ms=float(np.mean(run.tracker_ms[1:])) if n > 1 else float("nan")))
+            tracker_ms=float(np.mean(run.tracker_ms[1:])) if n > 1 else float("nan"),
+            poses=run.poses, floors=run.floors))
     return out
+
+
+def reanalyse(runs: list[SessionRun], gait: Any = None) -> list[SessionRun]:
+    """The runs with their steps found again by a fresh gait analyzer (``GaitConfig`` ``gait``, default: the
+    pipeline's) on their own tracked poses and floors, the input the pipeline gave its analyzer."""
+    from walker_gait.bench.gait import match_steps, run_analyzer
+
+    out = []
+    for r in runs:
+        if len(r.poses) != len(r.stamps) or len(r.floors) != len(r.stamps):
+            raise ValueError(f"run {r.key} (tracker seed {r.tracker_seed}) has no tracked poses to re-analyse")
+        det = run_analyzer(r.poses, r.floors, config=gait).steps
+        pairs, _, _ = match_steps(r.gt, det)
+        out.append(replace(r, det=det, pairs=pairs))
+    return out
+
+
+def save_runs(runs: list[SessionRun], path: Path) -> None:
+    """Write ``runs`` (pickle, atomically) for :func:`load_runs` / ``--reanalyse``."""
+    tmp = path.with_name(f".{path.name}.tmp")
+    with open(tmp, "wb") as fh:
+        pickle.dump(runs, fh, protocol=pickle.HIGHEST_PROTOCOL)
+    os.replace(tmp, path)
+
+
+def load_runs(path: Path) -> list[SessionRun]:
+    """Runs written by :func:`save_runs` (a file this tool wrote: pickle runs code, load only your own)."""
+    with open(path, "rb") as fh:
+        runs = pickle.load(fh)  # noqa: S301 - our own output
+    if not isinstance(runs, list) or not all(isinstance(r, SessionRun) for r in runs):
+        raise ValueError(f"{path} does not hold sweep runs")
+    return runs
 
 
 def _progression(run: SessionRun) -> np.ndarray:
@@ -303,6 +345,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--cache", type=Path, default=Path("out/sweep/cache"), help="rendered sessions (reused)")
     ap.add_argument("--jobs", type=int, default=os.cpu_count() or 1)
     ap.add_argument("--oracle", action="store_true", help="also step figures with true toes/heels/ankles substituted")
+    ap.add_argument("--reanalyse", type=Path, metavar="DIR",
+                    help="no tracking: re-run the gait analyzer on the tracked poses of the sweep in DIR (its runs.pkl)")
+    ap.add_argument("--gait-override", default="{}", help="with --reanalyse: GaitConfig field overrides, JSON")
     a = ap.parse_args(argv)
     if a.compare:
         reps = {}
@@ -317,6 +362,8 @@ def main(argv: list[str] | None = None) -> int:
         return 0
     if a.out is None:
         ap.error("--out is required (or --compare)")
+    if a.reanalyse is not None:
+        return _reanalyse_main(a)
     try:
         overrides = json.loads(a.override)
         from walker_gait.core.tracker import preset
@@ -334,21 +381,50 @@ def main(argv: list[str] | None = None) -> int:
     with ProcessPoolExecutor(max_workers=max(1, a.jobs)) as pool:
         for res in tqdm(pool.map(_work, jobs), total=len(jobs), desc="sessions", unit="session", file=sys.stderr):
             runs.extend(res)
-    rep = report(runs, with_oracle=a.oracle)
-    rep["config"] = {"override": overrides, "scenarios": a.scenarios, "per_scenario": a.per_scenario,
-                     "base_seed": a.base_seed, "tracker_seeds": a.tracker_seeds, "duration": a.duration,
-                     "seconds": round(time.perf_counter() - t0, 1)}
-    a.out.mkdir(parents=True, exist_ok=True)
-    table = format_table({a.out.name: rep})
-    if a.oracle:
-        table += "\n\nGait analyzer on the tracked poses with true points substituted:\n\n" + format_oracle(rep)
-    for name, text in (("summary.json", json.dumps(rep, indent=1)), ("table.md", table + "\n")):
-        tmp = a.out / f".{name}.tmp"
-        tmp.write_text(text)
-        os.replace(tmp, a.out / name)
-    print(table)
+    config = {"override": overrides, "scenarios": a.scenarios, "per_scenario": a.per_scenario,
+              "base_seed": a.base_seed, "tracker_seeds": a.tracker_seeds, "duration": a.duration,
+              "seconds": round(time.perf_counter() - t0, 1)}
+    _write(a.out, runs, config, with_oracle=a.oracle)
     print(f"[sweep] {len(sessions)} sessions x {len(a.tracker_seeds)} tracker seeds in {time.perf_counter() - t0:.0f} s -> "
           f"{a.out}", file=sys.stderr)
+    return 0
+
+
+def _write(out: Path, runs: list[SessionRun], config: dict[str, Any], *, with_oracle: bool) -> None:
+    """``summary.json``, ``table.md`` and ``runs.pkl`` into ``out``; the table also to stdout."""
+    rep = report(runs, with_oracle=with_oracle)
+    rep["config"] = config
+    out.mkdir(parents=True, exist_ok=True)
+    table = format_table({out.name: rep})
+    if with_oracle:
+        table += "\n\nGait analyzer on the tracked poses with true points substituted:\n\n" + format_oracle(rep)
+    for name, text in (("summary.json", json.dumps(rep, indent=1)), ("table.md", table + "\n")):
+        tmp = out / f".{name}.tmp"
+        tmp.write_text(text)
+        os.replace(tmp, out / name)
+    save_runs(runs, out / "runs.pkl")
+    print(table)
+
+
+def _reanalyse_main(a: argparse.Namespace) -> int:
+    from walker_gait.core.gait import GaitConfig
+
+    t0 = time.perf_counter()
+    src = a.reanalyse / "runs.pkl"
+    try:
+        override = json.loads(a.gait_override)
+        gait = GaitConfig(**override)
+    except (json.JSONDecodeError, TypeError, ValueError) as exc:
+        print(f"sweep: bad --gait-override {a.gait_override!r}: {exc}", file=sys.stderr)
+        return 2
+    try:
+        runs = reanalyse(load_runs(src), gait)
+    except (OSError, ValueError, pickle.UnpicklingError, EOFError, AttributeError) as exc:
+        print(f"sweep: cannot re-analyse {src}: {exc}", file=sys.stderr)
+        return 2
+    config = {"reanalysed": str(a.reanalyse), "gait_override": override, "seconds": round(time.perf_counter() - t0, 1)}
+    _write(a.out, runs, config, with_oracle=a.oracle)
+    print(f"[sweep] re-analysed {len(runs)} runs of {src} -> {a.out}", file=sys.stderr)
     return 0
 
 

@@ -192,10 +192,14 @@ class GaitConfig:
             "max_step_time_s": self.max_step_time_s,
             "summary_window_s": self.summary_window_s,
             "history_s": self.history_s,
+            "planted_fit_window_s": self.planted_fit_window_s,
         }
         for name, value in positive.items():
             if not (math.isfinite(value) and value > 0):
                 raise GaitInputError(f"GaitConfig.{name} must be positive and finite, got {value}")
+        for name, value in (("planted_fit_sigma_s", self.planted_fit_sigma_s), ("hs_height_weight", self.hs_height_weight)):
+            if not (math.isfinite(value) and value >= 0):
+                raise GaitInputError(f"GaitConfig.{name} must be >= 0 and finite, got {value}")
         if self.progression_strides < 1:
             raise GaitInputError(f"GaitConfig.progression_strides must be >= 1, got {self.progression_strides}")
         if not 0 < self.baseline_percentile < 100:
