@@ -102,6 +102,15 @@ def test_reanalyse_runs_the_gait_analyzer_on_the_kept_poses(tmp_path: Path, caps
     assert "nope" in capsys.readouterr().err
     assert sweep.main(["--reanalyse", str(tmp_path / "missing"), "--out", str(tmp_path / "x")]) == 2
     assert "runs.pkl" in capsys.readouterr().err
+    # `python -m` (as make sweep runs it) writes runs another program can load
+    import subprocess
+    import sys
+
+    res = subprocess.run([sys.executable, "-m", "walker_gait.bench.sweep", "--reanalyse", str(tmp_path), "--out",
+                          str(tmp_path / "cli")], capture_output=True, text=True)
+    assert res.returncode == 0, res.stderr
+    cli = sweep.load_runs(tmp_path / "cli" / "runs.pkl")[0]
+    assert [(s.stamp, s.step_length) for s in cli.det] == [(s.stamp, s.step_length) for s in again.det]
 
 
 @pytest.mark.slow

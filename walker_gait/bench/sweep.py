@@ -429,4 +429,7 @@ def _reanalyse_main(a: argparse.Namespace) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    # run the importable module's main, so runs.pkl holds walker_gait.bench.sweep.SessionRun, not __main__'s
+    from walker_gait.bench import sweep as _sweep
+
+    sys.exit(_sweep.main())
