@@ -38,11 +38,14 @@ import time
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from walker_gait.core.types import ANKLE, HEEL, LEG_POINTS, TOE, FloorPlane, LegPose, Step, TrackStatus
+
+if TYPE_CHECKING:
+    from walker_gait.core.gait import GaitConfig
 
 SCENARIOS = ("normal", "slow_elderly", "baggy_trousers", "occlusion", "asymmetric", "stop_and_go", "absent_start",
              "different_camera")
@@ -133,7 +136,7 @@ def run_session(scenario: str, seed: int, *, duration: float, tracker_seeds: tup
     return out
 
 
-def reanalyse(runs: list[SessionRun], gait: Any = None) -> list[SessionRun]:
+def reanalyse(runs: list[SessionRun], gait: GaitConfig | None = None) -> list[SessionRun]:
     """The runs with their steps found again by a fresh gait analyzer (``GaitConfig`` ``gait``, default: the
     pipeline's) on their own tracked poses and floors, the input the pipeline gave its analyzer."""
     from walker_gait.bench.gait import match_steps, run_analyzer
@@ -251,10 +254,10 @@ def oracle(runs: list[SessionRun], points: tuple[int, ...]) -> dict[str, float]:
     """Step figures of the gait analyzer fed the tracked poses with the true ``points`` substituted.
 
     The analyzer gets the true floor and every frame with an estimate at full confidence, so ``points=()``
-    differs a little from the pipeline's own steps (estimated floor, tracker confidences)."""
-    from walker_gait.bench.gait import match_steps, run_analyzer
-    from walker_gait.core.types import FloorPlane
-
+    differs a little from the pipeline's own steps (estimated floor, tracker confidences).  The tracker's foot
+    visibility goes with the poses (the analyzer does not trust a hidden trailing toe) unless the toes are
+    substituted (an exact toe counts as in view)."""
+    exact_toe = TOE in points
     subs = []
     for r in runs:
         poses = []
@@ -262,12 +265,13 @@ def oracle(runs: list[SessionRun], points: tuple[int, ...]) -> dict[str, float]:
             p = r.est[i].copy()
             p[:, list(points)] = r.truth[i][:, list(points)]
             ok = bool(np.all(np.isfinite(p)))
+            vis = None if exact_toe or not r.poses else r.poses[i].visibility
             poses.append(LegPose(stamp=float(r.stamps[i]), points=p if ok else np.full((2, 5, 3), np.nan),
-                                 status=TrackStatus.TRACKING if ok else TrackStatus.NO_USER, confidence=1.0 if ok else 0.0))
+                                 status=TrackStatus.TRACKING if ok else TrackStatus.NO_USER, confidence=1.0 if ok else 0.0,
+                                 visibility=vis))
         floor = FloorPlane(normal=r.floor_normal, offset=r.floor_offset, rms=0.0, inlier_ratio=1.0, valid=True)
-        det = run_analyzer(poses, floor).steps
-        pairs, _, _ = match_steps(r.gt, det)
-        subs.append(replace(r, det=det, pairs=pairs))
+        subs.append(replace(r, poses=poses, floors=[floor] * len(poses)))
+    subs = reanalyse(subs)
     out = {"matched_steps": float(sum(len(s.pairs) for s in subs))}
     out.update(_step_errors(subs))
     return out
