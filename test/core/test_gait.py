@@ -121,6 +121,48 @@ def test_short_double_support_with_noisy_feet(swing_fraction: float) -> None:
         assert r["step_length_mae"] < 0.03
 
 
+TRACKED = REPO / "test" / "core" / "data" / "tracked_asymmetric_gait.npz"
+"""Tracker output (``default`` preset, tracker seed 0, ``make sweep`` set A) of two 8 s synthetic ``asymmetric``
+sessions, 141 and 142: per frame the LegPose points, visibility, status and confidence and the pipeline's
+floor, plus the true heel strikes.  Poses as the live and offline pipelines give them to the analyzer."""
+
+
+def _tracked(name: str) -> tuple[list[LegPose], list[FloorPlane], list[Step]]:
+    with np.load(TRACKED) as z:
+        d = {k.removeprefix(name + "_"): z[k] for k in z.files if k.startswith(name + "_")}
+    poses = [LegPose(stamp=float(t), points=p, visibility=v, status=TrackStatus(int(s)), confidence=float(c))
+             for t, p, v, s, c in zip(d["stamp"], d["points"], d["visibility"], d["status"], d["confidence"], strict=True)]
+    floors = [FloorPlane(normal=n, offset=float(o), rms=float(r), inlier_ratio=float(i), valid=bool(v))
+              for n, o, r, i, v in zip(d["floor_normal"], d["floor_offset"], d["floor_rms"], d["floor_inlier"],
+                                       d["floor_valid"], strict=True)]
+    nan = math.nan
+    gt = [Step(stamp=float(t), side=Side(int(s)), index=i, step_length=float(length), step_width=nan, step_time=nan,
+               stride_length=nan, stride_time=nan, stance_time=nan, swing_time=nan, single_support_time=nan,
+               double_support_time=nan)
+          for i, (t, s, length) in enumerate(zip(d["gt_stamp"], d["gt_side"], d["gt_length"], strict=True))]
+    return poses, floors, gt
+
+
+def test_tracked_foot_held_toe_down_still_lands() -> None:
+    """Session 141: the tracker pitches planted feet toe-down (from the front, the shoe's top hides the heel),
+    holding the heel 4-6 cm up through whole stances.  A foot whose toe is planted and whose heel has stopped
+    advancing has landed.  (Asking for the heel within ``hs_height_tol_m`` of the floor: 6 of 12 steps
+    missed, one phantom step.)"""
+    poses, floors, gt = _tracked("a141")
+    pairs, missed, extra = match_steps(gt, run_analyzer(poses, floors).steps)
+    assert len(missed) <= 1 and not extra, ([gt[i].stamp for i in missed], len(extra))
+
+
+def test_tracked_gait_initiation_with_dragged_swinging_heel() -> None:
+    """Session 142, the first two steps: double support of ~4 frames, and the tracked heel of the foot that
+    then swings stays within the planted band (the model foot pitched toe-up).  That foot's toe lifts and moves
+    forward faster than the walker while the other foot is down: the other foot has landed.  (Asking for the
+    swinging heel to be lifted too: both steps missed.)"""
+    poses, floors, gt = _tracked("a142")
+    pairs, missed, extra = match_steps(gt, run_analyzer(poses, floors).steps)
+    assert not missed and not extra, ([gt[i].stamp for i in missed], [gt[i].stamp for i, _ in pairs][:3])
+
+
 def test_temporal_parameters_match_ground_truth() -> None:
     sim, ga, r = _run(SCENARIOS["asymmetric"])
     for attr in ("step_time", "swing_time", "stance_time", "double_support_time"):

@@ -770,21 +770,27 @@ class GaitAnalyzer:
             self._state = GaitState.INIT
             return
         moved = float(np.hypot(*(self._track[k, a, _H] - self._swing_heel_anchor)))
-        low = self._smooth[k, a, _H, 2] - self._baseline[a, _H] < c.hs_height_tol_m
+        # on the floor = the heel within `hs_height_tol_m` of its baseline, or the toe planted: a tracker
+        # that pitches a planted foot toe-down (from the front the shoe's top hides the heel) holds its
+        # heel centimetres up for a whole stance, and a foot landing toe-first is down before its heel
+        low = bool(self._smooth[k, a, _H, 2] - self._baseline[a, _H] < c.hs_height_tol_m) or bool(
+            self._weight[k, a, _T] >= 0.5
+        )
         sw_dir = self._track[k, a, _H] - self._swing_heel_anchor
         sw_dir = sw_dir / max(float(np.hypot(*sw_dir)), 1e-9)
         # landed = the heel no longer advances relative to the other foot; if the other foot
         # already lifts off, the relative track moves *backwards*, which also counts as landed.
-        # Walking has no flight phase: once the other foot has left the floor (heel and toe both
-        # lifted) while this heel is down, this foot has landed, even if tracker noise on the other
-        # foot's toe kept the relative track from coming to rest during the short double support
-        # (afterwards that track follows the other foot's swing and never rests).
-        # (checked in the walker frame, independent of the relative tracks: the other toe moves forward
-        # faster than the walker, this heel does not)
+        # Walking has no flight phase: once the other foot has left the floor (its toe lifted and moving
+        # forward faster than the walker) while this foot is down and its heel is not moving forward,
+        # this foot has landed, even if tracker noise on the other foot's toe kept the relative track
+        # from coming to rest during the short double support (afterwards that track follows the other
+        # foot's swing and never rests).  Checked in the walker frame, independent of the relative
+        # tracks.  The other foot's heel is not asked to be lifted: a tracked swinging heel often stays
+        # within the planted band (the model foot pitched toe-up), and at gait initiation, with double
+        # support as short as four frames, that cost the first steps.
         u = self._progression_dir()
         other_lifted = (
-            bool(np.all(self._weight[k, 1 - a] < 0.5))
-            and self._weight[k, a, _H] >= 0.5
+            bool(self._weight[k, 1 - a, _T] < 0.5)
             and self._walker_speed(k, 1 - a, _T, u) > c.rest_speed_mps
             and self._walker_speed(k, a, _H, u) < c.rest_speed_mps
         )
