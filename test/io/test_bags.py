@@ -35,6 +35,7 @@ from walker_gait.io.bags import (
     RecordingWarning,
     TopicSummary,
     decode_compressed_depth,
+    decode_rvl,
     find_recordings,
     open_recording,
     pair_camera_info_topic,
@@ -108,10 +109,44 @@ def info_fields(stamp_ns: int, fx: float, frame_id: str = "cam_depth_optical", w
     }
 
 
+def encode_rvl(img: np.ndarray) -> bytes:
+    """RVL encoder written from the algorithm's description (Wilson 2017; image_transport's codec layout:
+    uint32 cols, rows, then 32-bit little-endian words of nibbles, most significant first), plain Python."""
+    nibbles: list[int] = []
+
+    def vle(value: int) -> None:
+        while True:
+            nib, value = value & 7, value >> 3
+            nibbles.append(nib | (8 if value else 0))
+            if not value:
+                return
+
+    flat = [int(v) for v in img.reshape(-1)]
+    i, previous = 0, 0
+    while i < len(flat):
+        j = i
+        while j < len(flat) and flat[j] == 0:
+            j += 1
+        vle(j - i)
+        k = j
+        while k < len(flat) and flat[k] != 0:
+            k += 1
+        vle(k - j)
+        for v in flat[j:k]:
+            delta = v - previous
+            vle((delta << 1) ^ (delta >> 31))  # zigzag: -1 -> 1, 1 -> 2, -2 -> 3
+            previous = v
+        i = k
+    nibbles += [0] * (-len(nibbles) % 8)
+    words = [int("".join(f"{x:x}" for x in nibbles[w : w + 8]), 16) for w in range(0, len(nibbles), 8)]
+    return struct.pack("<II", img.shape[1], img.shape[0]) + struct.pack(f"<{len(words)}I", *words)
+
+
 def encode_compressed_depth(
-    depth: np.ndarray, *, encoding: str, depth_max: float = 10.0, depth_quantization: float = 100.0
+    depth: np.ndarray, *, encoding: str, depth_max: float = 10.0, depth_quantization: float = 100.0,
+    codec: str = "png",
 ) -> tuple[str, bytes]:
-    """image_transport compressedDepth encoder (png): 12-byte ConfigHeader + 16-bit PNG."""
+    """image_transport compressedDepth encoder: 12-byte ConfigHeader + 16-bit PNG (or RVL, ``codec="rvl"``)."""
     if encoding == "16UC1":
         img = depth.astype(np.uint16).copy()
         img[img > int(depth_max * 1000)] = 0
@@ -124,6 +159,8 @@ def encode_compressed_depth(
         ok = depth < depth_max  # NaN compares False -> 0 (invalid)
         img = np.where(ok, inv, 0).astype(np.uint16)  # float -> ushort truncates like the C++ cast
         quant = (float(quant_a), float(quant_b))
+    if codec == "rvl":
+        return f"{encoding}; compressedDepth rvl", struct.pack("<iff", 0, *quant) + encode_rvl(img)
     ok, png = cv2.imencode(".png", img)
     assert ok
     return f"{encoding}; compressedDepth png", struct.pack("<iff", 0, *quant) + png.tobytes()
@@ -480,13 +517,63 @@ def test_compressed_depth_16uc1_property(depth: np.ndarray) -> None:
     [
         (b"\x00" * 12 + b"notapng", "16UC1; compressedDepth png", "cannot be decoded|not a single-channel"),
         (b"\x00" * 5, "16UC1; compressedDepth png", "too short"),
-        (b"\x00" * 40, "16UC1; compressedDepth rvl", "RVL"),
+        (b"\x00" * 12 + struct.pack("<II", 0, 4), "16UC1; compressedDepth rvl", "implausible size"),
+        (b"\x00" * 12 + struct.pack("<II", 1000, 1000) + b"\x00" * 16, "16UC1; compressedDepth rvl", "implausible size"),
+        (b"\x00" * 12 + b"\x03\x00", "16UC1; compressedDepth rvl", "too short"),
         (b"\x00" * 40, "rgb8; compressedDepth png", "16- or 32-bit"),
     ],
 )
 def test_compressed_depth_errors(data: bytes, fmt: str, needle: str) -> None:
     with pytest.raises(CompressedDepthError, match=needle):
         decode_compressed_depth(data, fmt=fmt)
+
+
+def test_rvl_hand_encoded_example() -> None:
+    """[0, 5, 3]: VLE(1 zero), VLE(2 non-zeros), zigzag deltas 10 (nibbles 0xA, 0x1) and 3: nibbles 1 2 A 1 3, padded
+    into one word 0x12A13000, stored little-endian.  Pins the layout independently of the test encoder."""
+    payload = struct.pack("<II", 3, 1) + bytes([0x00, 0x30, 0xA1, 0x12])
+    np.testing.assert_array_equal(decode_rvl(np.frombuffer(payload, np.uint8)), [[0, 5, 3]])
+    assert encode_rvl(np.array([[0, 5, 3]], np.uint16)) == payload
+
+
+@settings(max_examples=40, deadline=None)
+@given(arrays(np.uint16, st.tuples(st.integers(1, 9), st.integers(1, 13)),
+              elements=st.one_of(st.just(0), st.integers(1, 65535), st.integers(990, 1010))))
+def test_rvl_round_trip_property(depth: np.ndarray) -> None:
+    """Zero runs, big jumps (deltas wrapping around 16 bits) and small steps survive the round trip."""
+    fmt, data = encode_compressed_depth(depth, encoding="16UC1", depth_max=70.0, codec="rvl")
+    enc, out = decode_compressed_depth(data, fmt=fmt)
+    assert enc == "16UC1" and out.dtype == np.uint16
+    np.testing.assert_array_equal(out, depth)
+
+
+def test_rvl_32fc1_and_in_recording(tmp_path: Path) -> None:
+    depth = np.linspace(0.4, 6.0, W * H, dtype=np.float32).reshape(H, W)
+    depth[0, :5] = np.nan
+    png_fmt, png = encode_compressed_depth(depth, encoding="32FC1")
+    fmt, data = encode_compressed_depth(depth, encoding="32FC1", codec="rvl")
+    assert fmt == "32FC1; compressedDepth rvl"
+    enc, out = decode_compressed_depth(data, fmt=fmt)
+    np.testing.assert_array_equal(out, decode_compressed_depth(png, fmt=png_fmt)[1])  # same quantisation as png
+    assert enc == "32FC1" and np.isnan(out[0, :5]).all() and np.isfinite(out[1:]).all()
+    msgs = []
+    for i in range(2):
+        fmt16, data16 = encode_compressed_depth(depth_array(i), encoding="16UC1", codec="rvl")
+        msgs.append(Msg(COMP, COMPRESSED_IMAGE_TYPE, T0 + i * DT,
+                        {"header": header(T0 + i * DT), "format": fmt16, "data": np.frombuffer(data16, np.uint8)}))
+    rec = quiet_open(make_recording(tmp_path, "bare_mcap", msgs))
+    frames = frames_of(rec)
+    assert len(frames) == 2
+    for i, fr in enumerate(frames):
+        assert (fr.encoding, fr.width, fr.height) == ("16UC1", W, H)
+        np.testing.assert_array_equal(fr.data, depth_array(i))
+
+
+def test_rvl_truncated_stream_is_an_error() -> None:
+    img = (np.arange(40, dtype=np.uint16).reshape(5, 8) * 37 + 500) * (np.arange(40).reshape(5, 8) % 3 > 0)
+    payload = encode_rvl(img.astype(np.uint16))
+    with pytest.raises(CompressedDepthError, match="ends|overruns"):
+        decode_rvl(np.frombuffer(payload[:-8], np.uint8))
 
 
 def test_compressed_depth_8bit_png_rejected() -> None:
