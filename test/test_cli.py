@@ -120,3 +120,28 @@ def test_cli_limits_blas_threads_unless_the_user_chose() -> None:
     env["OMP_NUM_THREADS"] = "2"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, check=True)
     assert out.stdout.split() == ["2", "1"]
+
+
+def test_upside_down_camera_warns_and_up_hint_fixes_it(tmp_path: Path) -> None:
+    """A camera mounted upside down: the floor is not found around the default up direction; `process` still
+    writes every output and warns, naming the file and the parameter; with that parameter set, steps are found."""
+    import numpy as np
+
+    from walker_gait.synth import SessionSpec, generate_session, write_session
+
+    spec = SessionSpec.preset("normal", duration=4.0, scale=0.5, cam_roll_deg=(180.0, 180.0))
+    path = tmp_path / "upside_down.mcap"
+    write_session(generate_session(spec, rng=np.random.default_rng(3)), path, fmt="mcap", encoding="16UC1")
+    plain = walker_gait("process", str(path), "--out", str(tmp_path / "plain"), "--quiet")
+    assert plain.returncode == 0, plain.stderr
+    assert "no floor plane found" in plain.stderr and str(path) in plain.stderr and "up_hint" in plain.stderr
+    meta = json.loads((tmp_path / "plain" / "summary.json").read_text())["metadata"]
+    assert meta["frames_without_floor"] > meta["frames_processed"] // 2
+    fixed = walker_gait("process", str(path), "--out", str(tmp_path / "fixed"), "--quiet",
+                        "--param", "floor_segmentation.floor.up_hint=[0.0,1.0,0.0]")
+    assert fixed.returncode == 0, fixed.stderr
+    assert "no floor plane found" not in fixed.stderr
+    meta = json.loads((tmp_path / "fixed" / "summary.json").read_text())["metadata"]
+    assert meta["frames_without_floor"] == 0
+    with open(tmp_path / "fixed" / "steps.csv", newline="") as fh:
+        assert len(list(csv.reader(fh))) - 1 >= 3

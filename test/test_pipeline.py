@@ -120,3 +120,30 @@ def test_prefetch_worker_reads_every_format(tmp_path: Path, fmt: str) -> None:
     ahead = process_recording(path, tmp_path / "ahead", options=_options(2), progress=False)
     assert ahead.frames == inline.frames == 30
     assert (tmp_path / "ahead" / "joints.csv").read_bytes() == (tmp_path / "inline" / "joints.csv").read_bytes()
+
+
+def test_frames_without_a_floor_are_tracked_as_no_user(short_session: Path, tmp_path: Path,
+                                                      monkeypatch: pytest.MonkeyPatch) -> None:
+    """A recording whose first frames are blank (lens covered: no floor can be found yet) and which goes blank
+    again mid-walk: every frame gets a pose (NO_USER while there is no floor; a track coasts through a short
+    blackout) and the outputs are written (the tracker raised on the first frame before)."""
+    import dataclasses
+
+    from walker_gait.core.types import TrackStatus
+
+    original = Recording.iter_frames
+    blank = set(range(8)) | set(range(40, 44))
+
+    def frames(self: Recording) -> Any:
+        for i, frame in enumerate(original(self)):
+            yield dataclasses.replace(frame, data=np.zeros_like(frame.data)) if i in blank else frame
+
+    monkeypatch.setattr(Recording, "iter_frames", frames)
+    res = process_recording(short_session, tmp_path / "out", options=PipelineOptions(seed=4, write_mcap=False),
+                            progress=False)
+    assert res.frames == 75 and len(res.poses) == 75
+    assert all(res.poses[i].status == TrackStatus.NO_USER for i in range(8))
+    assert all(res.poses[i].status in (TrackStatus.DEGRADED, TrackStatus.NO_USER) for i in range(40, 44))
+    assert any(p.status == TrackStatus.TRACKING for p in res.poses[8:40])
+    for name in ("joints.csv", "steps.csv", "events.csv", "summary.json", "report.html"):
+        assert (tmp_path / "out" / name).is_file(), name

@@ -489,6 +489,12 @@ def process_recording(path: Path, out_dir: Path, *, options: PipelineOptions | N
     steps.extend(tail_steps)
     summary = _summary_dict(proc.analyzer.summary(window_s=None))
     processed = len(poses)
+    no_floor = sum(1 for f in floors if not f.valid)
+    if processed and no_floor > processed // 2:
+        print(f"walker-gait: warning: {path}: no floor plane found in {no_floor} of {processed} frames, so the legs "
+              "could not be tracked there; if the camera is mounted rolled or upside down, set the floor's up "
+              "direction in the camera frame, e.g. --param floor_segmentation.floor.up_hint=[0.0,1.0,0.0] "
+              "(default [0.0,-1.0,0.0], image rows pointing down)", file=sys.stderr)
     wall_s = time.perf_counter() - t_start
     timings = {k: v / max(processed, 1) for k, v in timing_sum.items()}
     metadata = {
@@ -498,6 +504,7 @@ def process_recording(path: Path, out_dir: Path, *, options: PipelineOptions | N
         "frames_total": n_frames,
         "frames_processed": processed,
         "frames_skipped": dict(skipped),
+        "frames_without_floor": no_floor,
         "walker_gait_version": __version__,
         "processing_time_s": round(wall_s, 3),
         "depth_topic": recording.depth_topic,
@@ -513,7 +520,7 @@ def process_recording(path: Path, out_dir: Path, *, options: PipelineOptions | N
         files.append(out_dir / "report.html")
         report = _in_background(write_report, files[-1], steps=steps, events=events, poses=poses, summary=summary,
                                 metadata=metadata, ground_truth=dict(ground_truth) if ground_truth else None,
-                                floor=floors[-1] if floors else None)
+                                floor=next((f for f in reversed(floors) if f.valid), None))
     files.append(out_dir / "steps.csv")
     write_steps_csv(files[-1], steps)
     files.append(out_dir / "events.csv")

@@ -161,6 +161,27 @@ def test_bad_input_raises() -> None:
         tr.update(stamp=0.0, points=np.zeros((5, 3)), depth_fg=np.zeros((10, 10), np.float32), floor=floor)
 
 
+def test_frames_without_a_floor_count_as_without_foreground() -> None:
+    """No valid floor (not found yet, or hidden): no walker frame to track in.  Before a track: NO_USER; while
+    tracking, the track coasts (DEGRADED, confidence 0, last pose) for ``coast_frames``, then NO_USER."""
+    import dataclasses
+
+    s = own_sequence(n_frames=6, rng=np.random.default_rng(1))
+    cfg = dataclasses.replace(FAST, coast_frames=2)
+    tr = LegTracker(cfg, KINECT, rng=np.random.default_rng(0))
+    f0 = s.frames[0]
+    lost = dataclasses.replace(f0.floor, offset=float("nan"), valid=False)
+    pose = tr.update(stamp=0.0, points=f0.points, depth_fg=f0.depth, floor=lost)
+    assert pose.status == TrackStatus.NO_USER and np.isnan(pose.points).all()
+    poses = _run(tr, s.frames[:4])
+    assert poses[-1].status == TrackStatus.TRACKING
+    f = s.frames[4]
+    held = [tr.update(stamp=f.stamp + 0.01 * i, points=f.points, depth_fg=f.depth, floor=lost) for i in range(3)]
+    assert [p.status for p in held] == [TrackStatus.DEGRADED, TrackStatus.DEGRADED, TrackStatus.NO_USER]
+    np.testing.assert_array_equal(held[0].points, poses[-1].points)
+    assert held[0].confidence == 0.0
+
+
 def test_segment_visibility_follows_the_observed_depth() -> None:
     """Visible fraction per segment: ~1 where the model's surface is observed, ~0 for a leg that is
     missing from the depth or hidden behind something observed in front of it."""

@@ -239,6 +239,33 @@ def test_floor_segmentation_node_handles_all_invalid_and_good_clouds(rclpy_conte
         node.destroy_node()
 
 
+def test_floor_segmentation_warns_once_per_floorless_stretch(rclpy_context: None) -> None:
+    """NO_FLOOR_WARN_FRAMES frames in a row without a floor (blank clouds here; in practice a camera mounted upside
+    down with the default floor.up_hint): one warning naming floor.up_hint; a floor resets the count."""
+    from walker_gait.core.depth import DepthProjector, decode_depth
+    from walker_gait.ros.nodes import NO_FLOOR_WARN_FRAMES, FloorSegmentationNode
+
+    node = FloorSegmentationNode(parameter_overrides=[rclpy.parameter.Parameter("input", value="points")])
+    node.pub_fg = node.pub_mask = node.pub_floor = lambda msg: None
+    logger = FakeLogger()
+    warnings: list[str] = []
+    logger.warning = warnings.append  # type: ignore[method-assign]
+    node.get_logger = lambda: logger
+    try:
+        proj = DepthProjector()
+        proj.set_intrinsics(INTR)
+        blank = M.serialize(M.make_pointcloud2(np.full((48, 64, 3), np.nan, np.float32), M.make_header(1.0, "cam")))
+        depth = decode_depth(good_depth().tobytes(), encoding="16UC1", width=64, height=48, step=128, is_bigendian=False)
+        good = M.serialize(M.make_pointcloud2(proj.points(depth), M.make_header(2.0, "cam")))
+        for _ in range(2 * NO_FLOOR_WARN_FRAMES):
+            node.dispatch("points", M.POINT_CLOUD2, node.on_cloud, blank)
+        assert len(warnings) == 1 and "floor.up_hint" in warnings[0]
+        node.dispatch("points", M.POINT_CLOUD2, node.on_cloud, good)
+        assert node._no_floor == 0
+    finally:
+        node.destroy_node()
+
+
 def test_floor_segmentation_reads_depth_like_the_chain_through_points(rclpy_context: None) -> None:
     """`input: depth` (default) gives the same outputs as depth_to_cloud → `input: points`, and holds early images."""
     from walker_gait.ros.nodes import FloorSegmentationNode

@@ -368,7 +368,9 @@ class LegTracker:
 
         ``points``: ``(N, 3)`` foreground points, camera optical frame (m);
         ``depth_fg``: ``(H, W)`` foreground depth (m), NaN elsewhere, same size as the intrinsics;
-        ``floor``: floor plane in the camera frame.  Returns the pose in the camera frame.
+        ``floor``: floor plane in the camera frame.  Returns the pose in the camera frame.  A frame without a
+        valid floor is treated like one without foreground: a track coasts through up to ``coast_frames`` of
+        them (DEGRADED, confidence 0), then the pose is NO_USER until the floor is back.
         """
         pts = np.asarray(points, dtype=np.float64)
         if pts.ndim != 2 or pts.shape[1] != 3:
@@ -377,12 +379,13 @@ class LegTracker:
         if depth.shape != (self.intrinsics.height, self.intrinsics.width):
             msg = f"depth_fg shape {depth.shape} does not match the intrinsics {self.intrinsics.height}x{self.intrinsics.width}"
             raise TrackerInputError(msg)
-        if not floor.valid or not np.all(np.isfinite(floor.normal)):
-            raise TrackerInputError("floor plane is invalid")
         pts = pts[np.all(np.isfinite(pts), axis=1)]
         cfg = self.config
+        # no floor in this frame (not found yet, or hidden by the user or something in front of the lens): there
+        # is no walker frame to track in and no region of interest, so the frame counts as one without foreground
+        no_floor = not (floor.valid and np.all(np.isfinite(floor.normal)) and math.isfinite(floor.offset))
 
-        if pts.shape[0] < cfg.min_fg_points:
+        if no_floor or pts.shape[0] < cfg.min_fg_points:
             if self._x is not None and self._last_pose is not None and self._coasted < cfg.coast_frames:
                 # a brief dropout (a leg in front of the lens, nearer than the sensor's range, blanks the
                 # view): hold the track instead of re-detecting from whatever partial view comes next

@@ -39,6 +39,8 @@ from walker_gait.ros.base import (
 
 WAITING_IMAGES = 5
 """Depth images held while no CameraInfo has arrived yet (converted once it comes)."""
+NO_FLOOR_WARN_FRAMES = 90
+"""floor_segmentation warns once when this many consecutive frames had no floor (3 s at 30 Hz)."""
 
 
 class MissingCameraInfo(RuntimeError):
@@ -179,6 +181,7 @@ class FloorSegmentationNode(WalkerNode):
         config = self.declare_config(SegmenterConfig)
         seed = int(self.declare_parameter("seed", 0).value)
         self.segmenter = Segmenter(config, rng=stage_rng(seed, "floor_segmentation"))
+        self._no_floor = 0  # consecutive frames without a floor
         self.pub_fg = self.raw_publisher(M.POINT_CLOUD2, "foreground/points", STREAM)
         self.pub_mask = self.raw_publisher(M.IMAGE, "foreground/mask", STREAM)
         self.pub_floor = self.raw_publisher(M.FLOOR_PLANE, "floor_plane", STREAM)
@@ -222,6 +225,12 @@ class FloorSegmentationNode(WalkerNode):
 
     def segment(self, depth: np.ndarray, points: np.ndarray, header: Any) -> None:
         seg = self.segmenter.process(depth, points)
+        self._no_floor = 0 if seg.floor.valid else self._no_floor + 1
+        if self._no_floor == NO_FLOOR_WARN_FRAMES:  # once per floorless stretch
+            self.get_logger().warning(
+                f"no floor plane found in the last {NO_FLOOR_WARN_FRAMES} frames: the legs cannot be tracked (leg_track "
+                "says NO_USER); if the camera is mounted rolled or upside down, set floor.up_hint (the floor's up "
+                "direction in the camera frame, default [0.0, -1.0, 0.0]; upside down: [0.0, 1.0, 0.0])")
         self.pub_floor(M.make_floor_plane(seg.floor, header))
         self.pub_mask(M.make_image(seg.mask.astype(np.uint8) * 255, header, encoding="mono8"))
         self.pub_fg(M.make_pointcloud2(seg.points, header))
