@@ -163,9 +163,9 @@ def decode_compressed_depth(data: bytes | memoryview | NDArray[np.uint8], *, fmt
 
     The payload is a 12-byte ``ConfigHeader`` (int32 format, float32 depthParam[2]) followed by
     a 16-bit image, PNG or (format ``"...; compressedDepth rvl"``, the codec's other ``format`` option) RVL
-    (:func:`decode_rvl`).  For 16-bit encodings the image holds the
-    depth (mm); for 32-bit encodings it holds quantised inverse depth:
-    ``depth = depthParam[0] / (value - depthParam[1])`` for ``value != 0``, NaN otherwise.
+    (:func:`decode_rvl`).  For 16-bit encodings the image holds the depth (mm); for 32-bit encodings it
+    holds quantised inverse depth: ``depth = depthParam[0] / (value - depthParam[1])`` for ``value != 0``,
+    NaN otherwise.
 
     Args:
         data: The ``CompressedImage.data`` bytes.
