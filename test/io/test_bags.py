@@ -518,7 +518,8 @@ def test_compressed_depth_16uc1_property(depth: np.ndarray) -> None:
         (b"\x00" * 12 + b"notapng", "16UC1; compressedDepth png", "cannot be decoded|not a single-channel"),
         (b"\x00" * 5, "16UC1; compressedDepth png", "too short"),
         (b"\x00" * 12 + struct.pack("<II", 0, 4), "16UC1; compressedDepth rvl", "implausible size"),
-        (b"\x00" * 12 + struct.pack("<II", 1000, 1000) + b"\x00" * 16, "16UC1; compressedDepth rvl", "implausible size"),
+        (b"\x00" * 12 + struct.pack("<II", 100_000, 480) + b"\x00" * 16, "16UC1; compressedDepth rvl", "implausible size"),
+        (b"\x00" * 12 + struct.pack("<II", 1000, 1000) + b"\x00" * 16, "16UC1; compressedDepth rvl", "ends after 0 of"),
         (b"\x00" * 12 + b"\x03\x00", "16UC1; compressedDepth rvl", "too short"),
         (b"\x00" * 40, "rgb8; compressedDepth png", "16- or 32-bit"),
     ],
@@ -567,6 +568,16 @@ def test_rvl_32fc1_and_in_recording(tmp_path: Path) -> None:
     for i, fr in enumerate(frames):
         assert (fr.encoding, fr.width, fr.height) == ("16UC1", W, H)
         np.testing.assert_array_equal(fr.data, depth_array(i))
+
+
+def test_rvl_blank_frame_is_tiny_and_decodes() -> None:
+    """A frame without depth (lens covered) is one zero run: 12 bytes for 640x480.  A size-to-bytes ratio test
+    rejected it (found by the property test in CI)."""
+    blank = np.zeros((480, 640), np.uint16)
+    payload = encode_rvl(blank)
+    assert len(payload) == 12
+    out = decode_rvl(np.frombuffer(payload, np.uint8))
+    assert out.shape == (480, 640) and not out.any()
 
 
 def test_rvl_truncated_stream_is_an_error() -> None:

@@ -223,6 +223,7 @@ def _from_inverse_depth(img: NDArray[np.uint16], quant_a: float, quant_b: float)
 _RVL_SIZE = struct.Struct("<II")  # cols, rows
 _RVL_NIBBLE_SHIFTS = np.arange(28, -1, -4, dtype=np.uint32)  # nibbles of a word, most significant first
 _RVL_MAX_NIBBLES = 11  # a value of up to 32 bits: 11 nibbles of 3 payload bits
+_RVL_MAX_SIDE = 16384  # pixels per row or column; depth sensors are far below (a corrupt header is caught here)
 
 
 def decode_rvl(payload: NDArray[np.uint8]) -> NDArray[np.uint16]:
@@ -243,8 +244,9 @@ def decode_rvl(payload: NDArray[np.uint8]) -> NDArray[np.uint16]:
         raise CompressedDepthError(msg)
     cols, rows = _RVL_SIZE.unpack_from(buf, 0)
     n = rows * cols
-    # the best RVL ratio is below 4:1 in pixels per byte; the reference decoder rejects > 5 (corrupt size)
-    if n == 0 or n > 5 * buf.size:
+    # no ratio test: a blank frame (one zero run) is 12 bytes for any size.  The size only has to be sane; the
+    # stream walk below must then cover exactly these pixels before anything of that size is allocated.
+    if n == 0 or cols > _RVL_MAX_SIDE or rows > _RVL_MAX_SIDE:
         msg = f"compressedDepth RVL payload has an implausible size {cols}x{rows} for {buf.size} bytes"
         raise CompressedDepthError(msg)
     body = buf[_RVL_SIZE.size :]
