@@ -122,6 +122,42 @@ def test_prefetch_worker_reads_every_format(tmp_path: Path, fmt: str) -> None:
     assert (tmp_path / "ahead" / "joints.csv").read_bytes() == (tmp_path / "inline" / "joints.csv").read_bytes()
 
 
+def _mcap_convert_ros1(bag: Path, out: Path) -> None:
+    """What ``mcap convert`` makes of a ROS 1 bag: a ROS 1 profile MCAP with the bag's own definitions and bytes."""
+    from mcap.writer import Writer as McapWriter
+    from rosbags.rosbag1 import Reader
+
+    with Reader(bag) as reader, out.open("wb") as f:
+        writer = McapWriter(f)
+        writer.start(profile="ros1", library="test")
+        channels = {}
+        for c in reader.connections:
+            sid = writer.register_schema(name=c.msgtype.replace("/msg/", "/"), encoding="ros1msg",
+                                         data=c.msgdef.data.encode())
+            channels[c.id] = writer.register_channel(topic=c.topic, message_encoding="ros1", schema_id=sid,
+                                                     metadata={"md5sum": c.digest})
+        for c, t, raw in reader.messages():
+            writer.add_message(channels[c.id], log_time=t, data=raw, publish_time=t)
+        writer.finish()
+
+
+def test_ros1_profile_mcap_gives_the_results_of_its_bag(tmp_path: Path) -> None:
+    """A ROS 1 bag converted to MCAP (``mcap convert``, as Foxglove users do) is read and processed like the
+    bag itself (rosbags reads only ROS 2 profile MCAPs; it was refused as "corrupt or truncated")."""
+    from walker_gait.synth import SessionSpec, generate_session, write_session
+
+    session = generate_session(SessionSpec.preset("normal", duration=1.0, scale=0.5), rng=np.random.default_rng(5))
+    bag = tmp_path / "walk.bag"
+    write_session(session, bag, fmt="ros1", encoding="16UC1")
+    _mcap_convert_ros1(bag, tmp_path / "walk.mcap")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", RecordingWarning)  # nothing to warn about
+        from_bag = process_recording(bag, tmp_path / "bag", options=_options(2), progress=False)
+        from_mcap = process_recording(tmp_path / "walk.mcap", tmp_path / "mcap", options=_options(2), progress=False)
+    assert from_mcap.frames == from_bag.frames == 30
+    assert (tmp_path / "mcap" / "joints.csv").read_bytes() == (tmp_path / "bag" / "joints.csv").read_bytes()
+
+
 def test_frames_without_a_floor_are_tracked_as_no_user(short_session: Path, tmp_path: Path,
                                                       monkeypatch: pytest.MonkeyPatch) -> None:
     """A recording whose first frames are blank (lens covered: no floor can be found yet) and which goes blank

@@ -20,7 +20,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 from rosbags.rosbag1 import Writer as Writer1
-from rosbags.rosbag2 import StoragePlugin
+from rosbags.rosbag2 import CompressionFormat, CompressionMode, StoragePlugin
 from rosbags.rosbag2 import Writer as Writer2
 from rosbags.typesys import Stores, get_typestore
 
@@ -182,11 +182,16 @@ def build(ts: Any, msgtype: str, fields: dict[str, Any], *, ros1: bool) -> Any:
     return ts.types[msgtype](**{name: values[name.lower()] for name in names})
 
 
-def write_rosbag2(folder: Path, msgs: list[Msg], *, storage: str = "mcap") -> dict[tuple[str, int], bytes]:
-    """Write a rosbag2 folder; returns the CDR bytes written, keyed by (topic, log time)."""
+def write_rosbag2(folder: Path, msgs: list[Msg], *, storage: str = "mcap",
+                  compression: str | None = None) -> dict[tuple[str, int], bytes]:
+    """Write a rosbag2 folder (``compression`` "file" or "message": zstd, as ``ros2 bag record
+    --compression-mode``); returns the CDR bytes written, keyed by (topic, log time)."""
     plugin = StoragePlugin.MCAP if storage == "mcap" else StoragePlugin.SQLITE3
     written: dict[tuple[str, int], bytes] = {}
-    with Writer2(folder, version=9, storage_plugin=plugin) as writer:
+    writer = Writer2(folder, version=9, storage_plugin=plugin)
+    if compression:
+        writer.set_compression(CompressionMode[compression.upper()], CompressionFormat.ZSTD)
+    with writer:
         conns: dict[str, Any] = {}
         for m in msgs:
             if m.topic not in conns:
@@ -200,8 +205,11 @@ def write_rosbag2(folder: Path, msgs: list[Msg], *, storage: str = "mcap") -> di
     return written
 
 
-def write_ros1(path: Path, msgs: list[Msg]) -> None:
-    with Writer1(path) as writer:
+def write_ros1(path: Path, msgs: list[Msg], *, compression: str | None = None) -> None:
+    writer = Writer1(path)
+    if compression:  # "bz2" or "lz4" chunks, as `rosbag record --bz2/--lz4`
+        writer.set_compression(Writer1.CompressionFormat[compression.upper()])
+    with writer:
         conns: dict[str, Any] = {}
         for m in msgs:
             if m.topic not in conns:
@@ -209,6 +217,28 @@ def write_ros1(path: Path, msgs: list[Msg]) -> None:
         for m in sorted(msgs, key=lambda m: m.log_ns):
             raw = bytes(TS1.serialize_ros1(build(TS1, m.msgtype, m.fields, ros1=True), m.msgtype))
             writer.write(conns[m.topic], m.log_ns, raw)
+
+
+def write_mcap_ros1(path: Path, msgs: list[Msg]) -> None:
+    """A ROS 1 profile MCAP, as ``mcap convert`` makes of a ROS 1 bag (ros1msg schemas named ``pkg/Type``,
+    ``ros1`` message encoding, ROS 1 serialisation with the Header's ``seq``)."""
+    from mcap.writer import Writer as McapWriter
+
+    with path.open("wb") as f:
+        writer = McapWriter(f, chunk_size=4096)
+        writer.start(profile="ros1", library="test")
+        channels: dict[str, int] = {}
+        for m in msgs:
+            if m.topic not in channels:
+                text, md5 = TS1.generate_msgdef(m.msgtype, ros_version=1)
+                sid = writer.register_schema(name=m.msgtype.replace("/msg/", "/"), encoding="ros1msg",
+                                             data=text.encode())
+                channels[m.topic] = writer.register_channel(topic=m.topic, message_encoding="ros1", schema_id=sid,
+                                                            metadata={"md5sum": md5})
+        for m in sorted(msgs, key=lambda m: m.log_ns):
+            raw = bytes(TS1.serialize_ros1(build(TS1, m.msgtype, m.fields, ros1=True), m.msgtype))
+            writer.add_message(channels[m.topic], log_time=m.log_ns, data=raw, publish_time=m.log_ns)
+        writer.finish()
 
 
 def write_mcap_chunked(path: Path, msgs: list[Msg], *, chunk_size: int = 2048, indexed: bool = True) -> None:
@@ -261,10 +291,14 @@ def session(
 
 
 def make_recording(tmp: Path, fmt: str, msgs: list[Msg], name: str = "rec") -> Path:
-    """Write ``msgs`` as ``fmt``: rosbag2_mcap, bare_mcap, rosbag2_sqlite3, bare_db3, ros1."""
+    """Write ``msgs`` as ``fmt``: rosbag2_mcap, bare_mcap, rosbag2_sqlite3, bare_db3, ros1, ros1_mcap."""
     if fmt == "ros1":
         path = tmp / f"{name}.bag"
         write_ros1(path, msgs)
+        return path
+    if fmt == "ros1_mcap":
+        path = tmp / f"{name}.mcap"
+        write_mcap_ros1(path, msgs)
         return path
     storage = "sqlite3" if fmt in ("rosbag2_sqlite3", "bare_db3") else "mcap"
     folder = tmp / name
@@ -296,13 +330,14 @@ def frame_depth(frame: DepthFrame) -> np.ndarray:
     return np.ascontiguousarray(rows).view("<u2").reshape(frame.height, frame.width)
 
 
-FORMATS = ["rosbag2_mcap", "bare_mcap", "rosbag2_sqlite3", "bare_db3", "ros1"]
+FORMATS = ["rosbag2_mcap", "bare_mcap", "rosbag2_sqlite3", "bare_db3", "ros1", "ros1_mcap"]
 STORAGE = {
     "rosbag2_mcap": "rosbag2/mcap",
     "bare_mcap": "mcap",
     "rosbag2_sqlite3": "rosbag2/sqlite3",
     "bare_db3": "sqlite3",
     "ros1": "ros1",
+    "ros1_mcap": "mcap/ros1",
 }
 
 
@@ -325,7 +360,7 @@ def test_every_format_detects_topics_and_yields_frames(tmp_path: Path, fmt: str)
     assert rec.message_count == 2 * N_FRAMES + 3
     assert rec.start_ns == T0
     assert rec.recovered_messages is None
-    assert rec.is_ros1 == (fmt == "ros1")
+    assert rec.is_ros1 == (fmt in ("ros1", "ros1_mcap"))
 
     frames = frames_of(rec)
     assert len(frames) == N_FRAMES
@@ -349,6 +384,23 @@ def test_every_format_detects_topics_and_yields_frames(tmp_path: Path, fmt: str)
     assert ci.r == (1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0)
     assert (ci.cx, ci.cy) == ((W - 1) / 2, (H - 1) / 2)
     assert frames[1].camera_info is frames[2].camera_info  # unchanged calibration: same object
+
+
+@pytest.mark.parametrize(("fmt", "compression"), [("ros1", "bz2"), ("ros1", "lz4"), ("sqlite3", "file"),
+                                                  ("sqlite3", "message"), ("mcap", "file"), ("mcap", "message")])
+def test_compressed_recordings_are_read(tmp_path: Path, fmt: str, compression: str) -> None:
+    """Chunk-compressed ROS 1 bags and zstd-compressed rosbag2 (whole files or per message) give the same frames."""
+    if fmt == "ros1":
+        path = tmp_path / "rec.bag"
+        write_ros1(path, session(), compression=compression)
+    else:
+        path = tmp_path / "rec"
+        write_rosbag2(path, session(), storage=fmt, compression=compression)
+    frames = frames_of(quiet_open(path))
+    assert len(frames) == N_FRAMES
+    for i, fr in enumerate(frames):
+        np.testing.assert_array_equal(frame_depth(fr), depth_array(i))
+        assert fr.camera_info is not None
 
 
 def test_frames_do_not_copy_image_bytes(tmp_path: Path) -> None:
@@ -729,9 +781,10 @@ def test_iter_raw_ros2_passes_cdr_through(tmp_path: Path, fmt: str) -> None:
         list(rec.iter_raw(topics=["/nope"]))
 
 
-def test_iter_raw_ros1_converts_to_cdr(tmp_path: Path) -> None:
+@pytest.mark.parametrize("fmt", ["ros1", "ros1_mcap"])
+def test_iter_raw_ros1_converts_to_cdr(tmp_path: Path, fmt: str) -> None:
     msgs = session()
-    rec = quiet_open(make_recording(tmp_path, "ros1", msgs))
+    rec = quiet_open(make_recording(tmp_path, fmt, msgs))
     raw = list(rec.iter_raw())
     assert len(raw) == len(msgs)
     by_key = {(m.topic, m.log_ns): m for m in msgs}

@@ -413,12 +413,42 @@ class _Source:
         """Yield ``(topic, msgtype, log_time_ns, raw)`` in log-time order; raw is CDR (ROS 2) or ROS 1."""
         raise NotImplementedError
 
+    typestore: Any
+    _typs: dict[str, Any]
+    _cdr_store: Any = None
+
+    def _build_typestore(self, needed: Collection[str]) -> None:
+        """``typestore`` from the recording's definitions ``_typs``: as they are for ROS 1 (its Header has
+        ``seq``), completed from ROS 2 Jazzy's for ROS 2."""
+        if self.is_ros1:
+            from rosbags.typesys import Stores, get_typestore
+
+            self.typestore = get_typestore(Stores.EMPTY)
+            try:
+                self.typestore.register(self._typs)
+            except Exception as exc:
+                raise self._fail("cannot build message types from the recording's definitions", exc) from None
+        else:
+            self.typestore = _make_typestore(self._typs, needed)
+
     def deserialize(self, raw: bytes, msgtype: str) -> Any:
-        raise NotImplementedError
+        if self.is_ros1:
+            return self.typestore.deserialize_ros1(raw, msgtype)
+        return self.typestore.deserialize_cdr(raw, msgtype)
 
     def to_cdr(self, raw: bytes, msgtype: str) -> bytes:
         """CDR bytes of a message (identity for ROS 2 sources)."""
-        return raw
+        if not self.is_ros1:
+            return raw
+        if self._cdr_store is None:
+            # ROS 1 definitions with the ROS 2 std_msgs/Header (no seq), as rosbags.convert does;
+            # rosbags' ros1_to_cdr drops the seq field when converting a Header.
+            from rosbags.typesys import Stores, get_typestore
+
+            store = get_typestore(Stores.EMPTY)
+            store.register({**self._typs, "std_msgs/msg/Header": _jazzy_fielddefs()["std_msgs/msg/Header"]})
+            self._cdr_store = store
+        return bytes(self._cdr_store.ros1_to_cdr(raw, msgtype))
 
     def _fail(self, text: str, exc: BaseException | None = None) -> RecordingError:
         detail = f": {exc}" if exc is not None and str(exc) else (f": {type(exc).__name__}" if exc else "")
@@ -454,17 +484,7 @@ class _RosbagsSource(_Source):
                 if c.msgdef.format.name != "NONE" and c.msgdef.data
             ]
         self._typs = _parse_definitions(defs, self._warn)
-        needed = {t for t, _c in self.topics.values()}
-        if ros1:
-            from rosbags.typesys import Stores, get_typestore
-
-            self.typestore = get_typestore(Stores.EMPTY)
-            try:
-                self.typestore.register(self._typs)
-            except Exception as exc:
-                raise self._fail("cannot build message types from the bag's definitions", exc) from None
-        else:
-            self.typestore = _make_typestore(self._typs, needed)
+        self._build_typestore({t for t, _c in self.topics.values()})
 
     @contextlib.contextmanager
     def _reader(self) -> Iterator[Any]:
@@ -506,24 +526,6 @@ class _RosbagsSource(_Source):
                     raise self._fail(f"read error after {n} messages (file corrupt?)", exc) from None
                 n += 1
                 yield conn.topic, conn.msgtype, int(stamp), raw
-
-    def deserialize(self, raw: bytes, msgtype: str) -> Any:
-        if self.is_ros1:
-            return self.typestore.deserialize_ros1(raw, msgtype)
-        return self.typestore.deserialize_cdr(raw, msgtype)
-
-    def to_cdr(self, raw: bytes, msgtype: str) -> bytes:
-        if not self.is_ros1:
-            return raw
-        if self._cdr_store is None:
-            # ROS 1 definitions with the ROS 2 std_msgs/Header (no seq), as rosbags.convert does;
-            # rosbags' ros1_to_cdr drops the seq field when converting a Header.
-            from rosbags.typesys import Stores, get_typestore
-
-            store = get_typestore(Stores.EMPTY)
-            store.register({**self._typs, "std_msgs/msg/Header": _jazzy_fielddefs()["std_msgs/msg/Header"]})
-            self._cdr_store = store
-        return bytes(self._cdr_store.ros1_to_cdr(raw, msgtype))
 
 
 class _StrictIO:
@@ -567,6 +569,7 @@ class _StreamMcapSource(_Source):
         self._paths = paths
         self.storage = storage
         self.is_ros1 = False
+        self._encoding: str | None = None  # "cdr" (ROS 2 profile) or "ros1" (ROS 1 profile, e.g. `mcap convert`)
         self.warnings = []
         self._schemas: dict[tuple[int, int], tuple[str, str, bytes]] = {}
         self._channels: dict[tuple[int, int], tuple[str, str]] = {}  # (file, id) -> (topic, msgtype)
@@ -583,11 +586,14 @@ class _StreamMcapSource(_Source):
             for kind, rec in self._records(fidx, p, state):
                 if kind == "channel":
                     topic, encoding, schema_id = rec.topic, rec.message_encoding, rec.schema_id
-                    if encoding != "cdr":
+                    if self._encoding is None and encoding in ("cdr", "ros1"):
+                        self._encoding = encoding  # the first ROS channel decides: ROS 2 or ROS 1 profile
+                        self.is_ros1 = encoding == "ros1"
+                    if encoding != self._encoding:
                         skipped_enc.add(f"{topic} ({encoding})")
                         continue
                     schema = self._schemas.get((fidx, schema_id))
-                    msgtype = schema[0] if schema else ""
+                    msgtype = _ros2_msgtype(schema[0]) if schema else ""
                     if not msgtype:
                         skipped_enc.add(f"{topic} (no schema)")
                         continue
@@ -610,7 +616,8 @@ class _StreamMcapSource(_Source):
         self.start_ns, self.end_ns = start, end
         total = sum(counts.values())
         if skipped_enc:
-            self._warn(f"ignoring non-CDR topics: {', '.join(sorted(skipped_enc))}")
+            kind = "ROS 1" if self.is_ros1 else "CDR"
+            self._warn(f"ignoring non-{kind} topics: {', '.join(sorted(skipped_enc))}")
         if out_of_order:
             self._warn("MCAP chunks are not in log-time order; messages are delivered in file order")
         damaged = [(p, s) for p, s in zip(paths, self._states, strict=True) if s.error]
@@ -629,11 +636,13 @@ class _StreamMcapSource(_Source):
         elif reason:
             self._warn(f"read with the streaming MCAP reader ({reason})")
         defs = []
+        formats = {"ros1msg": "msg"} if self.is_ros1 else {"ros2msg": "msg", "ros2idl": "idl", "omgidl": "idl"}
         for _key, (name, enc, data) in self._schemas.items():
-            fmt = {"ros2msg": "msg", "ros2idl": "idl", "omgidl": "idl"}.get(enc)
+            fmt = formats.get(enc)
             if fmt:
-                defs.append((name, fmt, data.decode("utf-8", errors="replace")))
-        self.typestore = _make_typestore(_parse_definitions(defs, self._warn), {t for t in types.values()})
+                defs.append((_ros2_msgtype(name), fmt, data.decode("utf-8", errors="replace")))
+        self._typs = _parse_definitions(defs, self._warn)
+        self._build_typestore(set(types.values()))
 
     def _records(self, fidx: int, path: Path, state: _ScanState) -> Iterator[tuple[str, Any]]:
         """Yield ``("channel", Channel)`` / ``("messages", [Message])`` up to the first damaged record."""
@@ -689,8 +698,12 @@ class _StreamMcapSource(_Source):
                         continue
                     yield ch[0], ch[1], int(m.log_time), m.data
 
-    def deserialize(self, raw: bytes, msgtype: str) -> Any:
-        return self.typestore.deserialize_cdr(raw, msgtype)
+
+
+def _ros2_msgtype(name: str) -> str:
+    """``pkg/msg/Type`` from a ROS 1 schema name ``pkg/Type`` (ROS 2 names pass through)."""
+    parts = name.split("/")
+    return f"{parts[0]}/msg/{parts[1]}" if len(parts) == 2 else name
 
 
 # ---------------------------------------------------------------------------------------------
@@ -705,6 +718,19 @@ def _magic(path: Path) -> bytes:
     except OSError as exc:
         msg = f"{path}: cannot read file ({exc.strerror or exc})"
         raise RecordingError(msg) from None
+
+
+def _mcap_profile(path: Path) -> str | None:
+    """The profile of an MCAP file's Header record (``ros1``, ``ros2``, ``""``); None when unreadable."""
+    try:
+        with path.open("rb") as f:
+            head = f.read(len(_MCAP_MAGIC) + 13)
+            if len(head) < len(_MCAP_MAGIC) + 13 or head[len(_MCAP_MAGIC)] != 0x01:  # opcode 0x01 = Header
+                return None
+            (n,) = struct.unpack_from("<I", head, len(_MCAP_MAGIC) + 9)
+            return f.read(min(n, 256)).decode("utf-8", errors="replace")
+    except OSError:
+        return None
 
 
 def _rosbag2_storage(folder: Path) -> tuple[str, list[Path]]:
@@ -756,6 +782,8 @@ def _open_source(path: Path) -> _Source:
         raise RecordingError(msg)
     if magic.startswith(_MCAP_MAGIC):
         _warn_if_split_part(path)
+        if _mcap_profile(path) == "ros1":  # e.g. `mcap convert` of a ROS 1 bag; rosbags reads ROS 2 profiles only
+            return _lenient_mcap([path], display=path, storage="mcap/ros1", reason=None)
         if path.suffix != ".mcap":
             return _lenient_mcap([path], display=path, storage="mcap", reason=None)
         try:
