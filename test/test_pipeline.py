@@ -158,6 +158,33 @@ def test_ros1_profile_mcap_gives_the_results_of_its_bag(tmp_path: Path) -> None:
     assert (tmp_path / "mcap" / "joints.csv").read_bytes() == (tmp_path / "bag" / "joints.csv").read_bytes()
 
 
+def test_repeated_and_out_of_order_frames_are_skipped(short_session: Path, tmp_path: Path,
+                                                      monkeypatch: pytest.MonkeyPatch,
+                                                      capsys: pytest.CaptureFixture[str]) -> None:
+    """A depth image recorded twice and one whose stamp goes back are skipped with one warning and counted
+    (the gait analyzer raised 'stamps must increase' and `process` died)."""
+    import dataclasses
+    import json
+
+    original = Recording.iter_frames
+
+    def frames(self: Recording) -> Any:
+        for i, frame in enumerate(original(self)):
+            if i == 20:
+                yield frame
+            if i == 30:
+                frame = dataclasses.replace(frame, stamp_ns=frame.stamp_ns - 200_000_000, stamp=frame.stamp - 0.2)
+            yield frame
+
+    monkeypatch.setattr(Recording, "iter_frames", frames)
+    res = process_recording(short_session, tmp_path / "out", options=_options(2), progress=False)
+    assert len(res.poses) == 75 - 1
+    assert [p.stamp for p in res.poses] == sorted({p.stamp for p in res.poses})
+    meta = json.loads((tmp_path / "out" / "summary.json").read_text())["metadata"]
+    assert meta["frames_total"] == 76 and meta["frames_skipped"] == {"stamp_not_increasing": 2}
+    assert capsys.readouterr().err.count("is not after the previous frame") == 1
+
+
 def test_frames_without_a_floor_are_tracked_as_no_user(short_session: Path, tmp_path: Path,
                                                       monkeypatch: pytest.MonkeyPatch) -> None:
     """A recording whose first frames are blank (lens covered: no floor can be found yet) and which goes blank

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import math
 import sys
 import time
 import warnings
@@ -184,6 +185,7 @@ class FrameProcessor:
         self.intrinsics: CameraIntrinsics | None = None
         self._info_key: Any = None
         self._tracker_intrinsics: CameraIntrinsics | None = None
+        self._last_stamp = -math.inf
 
     def set_camera_info(self, info: Any) -> None:
         """Apply a CameraInfo (``CameraInfoData`` or any object with width/height/k/d/p/distortion_model)."""
@@ -223,10 +225,20 @@ class FrameProcessor:
                              timings_ms={"depth": (t1 - t0) * 1e3, "segmentation": (t2 - t1) * 1e3})
 
     def track(self, frame: PreparedFrame) -> FrameResult:
-        """Tracker and gait analyzer on a prepared frame (a new calibration restarts the tracker)."""
+        """Tracker and gait analyzer on a prepared frame (a new calibration restarts the tracker).
+
+        Raises:
+            StampOrderError: the frame's stamp is not after the previous frame's (duplicate or out of order);
+                nothing has changed, the frame can be skipped.
+        """
         from walker_gait.config import stage_rng
+        from walker_gait.core.gait import StampOrderError
         from walker_gait.core.tracker import LegTracker
 
+        if not frame.stamp > self._last_stamp:
+            msg = f"stamp {frame.stamp:.6f} s is not after the previous frame's ({self._last_stamp:.6f} s)"
+            raise StampOrderError(msg)
+        self._last_stamp = frame.stamp
         if self.tracker is None or frame.intrinsics != self._tracker_intrinsics:
             self.tracker = LegTracker(self.options.tracker, frame.intrinsics,
                                       rng=stage_rng(self.options.seed, "leg_tracker"), mounting=self.options.mounting)
@@ -332,6 +344,7 @@ def _progress(iterable: Any, *, total: int, enabled: bool, desc: str) -> Any:
 def _prepare_one(proc: FrameProcessor, frame: Any) -> PreparedFrame | Exception:
     """Decode and segment ``frame``; a per-frame input problem is returned (the caller skips it in order)."""
     from walker_gait.core.depth import CameraInfoError, DepthDecodeError
+    from walker_gait.core.gait import StampOrderError
 
     try:
         if frame.camera_info is None:
@@ -462,6 +475,7 @@ def process_recording(path: Path, out_dir: Path, *, options: PipelineOptions | N
     n_frames = 0
     tracked: list[tuple[int, str, FrameResult]] = []  # (stamp_ns, frame_id, result) for tracked.mcap
     from walker_gait.core.depth import CameraInfoError, DepthDecodeError
+    from walker_gait.core.gait import StampOrderError
 
     for frame, prepared in _progress(_prepared_frames(recording, proc, prefetch=options.prefetch),
                                      total=recording.frame_count, enabled=progress, desc=path.name):
@@ -470,7 +484,7 @@ def process_recording(path: Path, out_dir: Path, *, options: PipelineOptions | N
             if isinstance(prepared, Exception):
                 raise prepared
             res = proc.track(prepared)
-        except (DepthDecodeError, CameraInfoError, MissingCalibration) as exc:
+        except (DepthDecodeError, CameraInfoError, MissingCalibration, StampOrderError) as exc:
             kind = getattr(exc, "kind", None) or type(exc).__name__
             if not skipped[kind]:
                 print(f"walker-gait: warning: {path}: frame at {frame.stamp:.3f} s skipped: {exc} "

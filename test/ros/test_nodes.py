@@ -400,3 +400,39 @@ def test_replay_waits_for_the_wanted_subscribers_on_each_input_topic(rclpy_conte
         replayer.stop()
         listener.destroy_node()
         node.destroy_node()
+
+
+def test_gait_analyzer_restarts_when_a_replay_loops_and_skips_repeated_stamps(rclpy_context: None) -> None:
+    """A looping replay sends the same stamps again: the session is flushed and analysed afresh (every frame
+    of the second pass was refused as 'stamps must increase' before); a repeated stamp skips one frame."""
+    from walker_gait.bench.gait import GaitSimSpec, simulate_gait
+    from walker_gait.ros.nodes import GaitAnalyzerNode
+
+    sim = simulate_gait(GaitSimSpec(), rng=np.random.default_rng(0))
+    node = GaitAnalyzerNode()
+    steps: list[Any] = []
+    node.pub_step = steps.append
+    node.pub_event = lambda msg: None
+    node.pub_summary = node.pub_window = lambda msg: None
+
+    def send(pose: Any, t: float) -> None:
+        header = M.make_header(t, "cam")
+        node.dispatch("floor_plane", M.FLOOR_PLANE, lambda m: node.on_part("floor", m),
+                      M.serialize(M.make_floor_plane(sim.floor, header)))
+        node.dispatch("leg_track", M.LEG_TRACK, lambda m: node.on_part("track", m),
+                      M.serialize(M.make_leg_track(pose, header, particle_count=0)))
+
+    try:
+        for pose in sim.poses:
+            send(pose, 100.0 + pose.stamp)
+        send(sim.poses[-1], 100.0 + sim.poses[-1].stamp)  # the last frame again
+        assert node.problems == {"stamp_not_increasing": 1}
+        first = len(steps)
+        for pose in sim.poses:  # the replay starts over
+            send(pose, 100.0 + pose.stamp)
+        node.close()
+        assert first >= len(sim.steps) - 1  # the first pass, flushed when time jumped back
+        assert len(steps) - first >= len(sim.steps) - 1  # and the second, analysed from scratch
+        assert node.problems == {"stamp_not_increasing": 1}
+    finally:
+        node.destroy_node()

@@ -80,6 +80,12 @@ class GaitInputError(ValueError):
     """Invalid input to :class:`GaitAnalyzer` (bad shape, non-increasing stamp, bad config)."""
 
 
+class StampOrderError(GaitInputError):
+    """A frame whose stamp is not after the previous frame's (a duplicate or out-of-order message)."""
+
+    kind = "stamp_not_increasing"
+
+
 class GaitState(IntEnum):
     """Phase of the event state machine."""
 
@@ -495,7 +501,7 @@ class GaitAnalyzer:
         if not math.isfinite(stamp):
             raise GaitInputError("LegPose.stamp must be finite")
         if self._n and stamp <= self._t[self._n - 1]:
-            raise GaitInputError(f"stamps must increase: {stamp} after {self._t[self._n - 1]}")
+            raise StampOrderError(f"stamps must increase: {stamp} after {self._t[self._n - 1]}")
         q = self.frame_quality(pose, floor)
         vis = np.ones(2)
         if pose.visibility is not None:

@@ -41,6 +41,8 @@ WAITING_IMAGES = 5
 """Depth images held while no CameraInfo has arrived yet (converted once it comes)."""
 NO_FLOOR_WARN_FRAMES = 90
 """floor_segmentation warns once when this many consecutive frames had no floor (3 s at 30 Hz)."""
+TIME_JUMP_RESET_S = 1.0
+"""gait_analyzer restarts its session when frame stamps jump back by more than this (s): a looping replay."""
 
 
 class MissingCameraInfo(RuntimeError):
@@ -350,6 +352,7 @@ class GaitAnalyzerNode(WalkerNode):
         self.window_s = float(self.declare_parameter("summary_window", 10.0).value)
         use_odom = bool(self.declare_parameter("use_odometry", False).value)
         self.analyzer = GaitAnalyzer(self.config)
+        self._last_stamp: float | None = None
         self.sync = StampSync(("track", "floor"))
         self.frame_id = ""
         self.pub_event = self.raw_publisher(M.GAIT_EVENT, "gait_events", EVENTS)
@@ -373,10 +376,25 @@ class GaitAnalyzerNode(WalkerNode):
             self.on_frame(parts["track"], M.floor_from_msg(parts["floor"]))
 
     def on_frame(self, msg: Any, floor: Any) -> None:
-        """One frame: its LegTrack and the FloorPlane with the same stamp."""
+        """One frame: its LegTrack and the FloorPlane with the same stamp.
+
+        Time running backwards by more than ``TIME_JUMP_RESET_S`` (a looping or restarted bag replay, a
+        simulator reset) ends the session: its last steps are flushed and the analysis starts afresh.  A
+        smaller step back or a repeated stamp skips the frame (``StampOrderError``, counted on /diagnostics).
+        """
+        from walker_gait.core.gait import GaitAnalyzer
+
         self.frame_id = msg.header.frame_id
         pose = M.leg_pose_from_track(msg)
+        if self._last_stamp is not None and pose.stamp < self._last_stamp - TIME_JUMP_RESET_S:
+            self.get_logger().warning(
+                f"time jumped back from {self._last_stamp:.3f} s to {pose.stamp:.3f} s (replay looped or "
+                "restarted?): gait analysis restarted")
+            self.close()
+            self.analyzer = GaitAnalyzer(self.config)
+            self._last_stamp = None
         events, steps = self.analyzer.update(pose, floor)
+        self._last_stamp = pose.stamp
         self.publish_results(events, steps, msg.header)
         self.frames_ok += 1
 
