@@ -145,3 +145,47 @@ def test_upside_down_camera_warns_and_up_hint_fixes_it(tmp_path: Path) -> None:
     assert meta["frames_without_floor"] == 0
     with open(tmp_path / "fixed" / "steps.csv", newline="") as fh:
         assert len(list(csv.reader(fh))) - 1 >= 3
+
+
+def test_recording_without_calibration_fails_clearly_and_camera_info_yaml_fixes_it(tmp_path: Path) -> None:
+    """No CameraInfo in the recording: exit 2 before any output is written, naming the file and the option
+    (the empty outputs were written first before); with ``--camera-info`` the results equal those of the
+    original recording."""
+    import warnings
+
+    import numpy as np
+    from rosbags.rosbag2 import Reader, StoragePlugin, Writer
+    from rosbags.typesys import Stores, get_typestore
+
+    from walker_gait.io.bags import RecordingWarning, open_recording
+    from walker_gait.io.camera_yaml import dump_camera_info_yaml
+    from walker_gait.synth import SessionSpec, generate_session, write_session
+
+    spec = SessionSpec.preset("normal", duration=2.0, scale=0.5)
+    full = tmp_path / "full.mcap"
+    write_session(generate_session(spec, rng=np.random.default_rng(3)), full, fmt="mcap", encoding="16UC1")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RecordingWarning)
+        info = next(iter(open_recording(full).iter_frames())).camera_info
+    assert info is not None
+    dump_camera_info_yaml(info, tmp_path / "depth.yaml")
+    stripped = tmp_path / "no_info"
+    store = get_typestore(Stores.ROS2_JAZZY)
+    with Reader(full) as reader, Writer(stripped, version=9, storage_plugin=StoragePlugin.MCAP) as writer:
+        conns = {c.id: writer.add_connection(c.topic, c.msgtype, typestore=store)
+                 for c in reader.connections if not c.msgtype.endswith("CameraInfo")}
+        for c, t, raw in reader.messages():
+            if c.id in conns:
+                writer.write(conns[c.id], t, raw)
+
+    res = walker_gait("process", str(stripped), "--out", str(tmp_path / "fail"), "--quiet")
+    assert res.returncode == 2, res.stderr
+    assert "no_info" in res.stderr and "--camera-info" in res.stderr and "Traceback" not in res.stderr
+    assert "RecordingWarning" not in res.stderr  # warnings read like the CLI's own
+    assert not list((tmp_path / "fail").glob("*.csv"))
+    ok = walker_gait("process", str(stripped), "--out", str(tmp_path / "ok"), "--quiet",
+                     "--camera-info", str(tmp_path / "depth.yaml"))
+    assert ok.returncode == 0, ok.stderr
+    ref = walker_gait("process", str(full), "--out", str(tmp_path / "ref"), "--quiet")
+    assert ref.returncode == 0, ref.stderr
+    assert (tmp_path / "ok" / "joints.csv").read_bytes() == (tmp_path / "ref" / "joints.csv").read_bytes()

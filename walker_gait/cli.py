@@ -16,6 +16,7 @@ import signal
 import subprocess
 import sys
 import time
+import warnings
 from pathlib import Path
 from typing import Any
 
@@ -317,8 +318,28 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _show_warning(message: Warning | str, category: type[Warning], filename: str, lineno: int,
+                  file: Any = None, line: str | None = None) -> None:
+    """Warnings about the user's input (``RecordingWarning``) read like the CLI's own, without source lines."""
+    from walker_gait.io.bags import RecordingWarning
+
+    out = sys.stderr if file is None else file
+    if issubclass(category, RecordingWarning):
+        out.write(f"walker-gait: warning: {message}\n")
+    else:
+        out.write(warnings.formatwarning(message, category, filename, lineno, line))
+
+
 def main(argv: list[str] | None = None) -> int:
-    argv = list(sys.argv[1:] if argv is None else argv)
+    previous = warnings.showwarning
+    warnings.showwarning = _show_warning
+    try:
+        return _main(list(sys.argv[1:] if argv is None else argv))
+    finally:
+        warnings.showwarning = previous
+
+
+def _main(argv: list[str]) -> int:
     parser = build_parser()
     if argv and argv[0] == "generate":
         try:

@@ -501,8 +501,15 @@ def process_recording(path: Path, out_dir: Path, *, options: PipelineOptions | N
     tail_events, tail_steps = proc.finish()
     events.extend(tail_events)
     steps.extend(tail_steps)
-    summary = _summary_dict(proc.analyzer.summary(window_s=None))
     processed = len(poses)
+    if processed == 0:  # nothing to write: fail before any output exists
+        from walker_gait.io.bags import RecordingError
+
+        hint = ""
+        if set(skipped) & {"no_camera_info", "CameraInfoError"}:
+            hint = "; give the depth camera's calibration with --camera-info FILE.yaml"
+        raise RecordingError(f"{path}: no frame could be processed ({dict(skipped) or 'no depth frames'}){hint}")
+    summary = _summary_dict(proc.analyzer.summary(window_s=None))
     no_floor = sum(1 for f in floors if not f.valid)
     if processed and no_floor > processed // 2:
         print(f"walker-gait: warning: {path}: no floor plane found in {no_floor} of {processed} frames, so the legs "
@@ -549,10 +556,6 @@ def process_recording(path: Path, out_dir: Path, *, options: PipelineOptions | N
                            particle_count=int(getattr(options.tracker, "n_particles", 0)))
     if report is not None:
         report()
-    if processed == 0:
-        from walker_gait.io.bags import RecordingError
-
-        raise RecordingError(f"{path}: no frame could be processed ({dict(skipped) or 'no depth frames'})")
     return ProcessResult(input=path, out_dir=out_dir, frames=processed, skipped=dict(skipped), steps=steps,
                          events=events, poses=poses, summary=summary, wall_s=time.perf_counter() - t_start,
                          timings_ms=timings, files=files)

@@ -1397,7 +1397,7 @@ def open_recording(
             notes.append(f"using calibration from {info_path} instead of the recording's {info}")
         info = None
     elif info is None:
-        notes.append("no CameraInfo in the recording; pass camera_info_file for the calibration")
+        notes.append("no CameraInfo in the recording; give the calibration as a YAML file (walker-gait process --camera-info FILE.yaml, camera_info_file in Python)")
     elif topics[info].count == 0:
         notes.append(f"CameraInfo topic {info} has no messages; pass camera_info_file for the calibration")
 
