@@ -344,7 +344,6 @@ def _progress(iterable: Any, *, total: int, enabled: bool, desc: str) -> Any:
 def _prepare_one(proc: FrameProcessor, frame: Any) -> PreparedFrame | Exception:
     """Decode and segment ``frame``; a per-frame input problem is returned (the caller skips it in order)."""
     from walker_gait.core.depth import CameraInfoError, DepthDecodeError
-    from walker_gait.core.gait import StampOrderError
 
     try:
         if frame.camera_info is None:
@@ -511,7 +510,7 @@ def process_recording(path: Path, out_dir: Path, *, options: PipelineOptions | N
         raise RecordingError(f"{path}: no frame could be processed ({dict(skipped) or 'no depth frames'}){hint}")
     summary = _summary_dict(proc.analyzer.summary(window_s=None))
     no_floor = sum(1 for f in floors if not f.valid)
-    if processed and no_floor > processed // 2:
+    if no_floor > processed // 2:
         print(f"walker-gait: warning: {path}: no floor plane found in {no_floor} of {processed} frames, so the legs "
               "could not be tracked there; if the camera is mounted rolled or upside down, set the floor's up "
               "direction in the camera frame, e.g. --param floor_segmentation.floor.up_hint=[0.0,1.0,0.0] "

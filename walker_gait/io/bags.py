@@ -401,6 +401,9 @@ class _Source:
     end_ns: int | None
     warnings: list[str]
     recovered_messages: int | None = None  # set when a damaged file was read partially
+    typestore: Any
+    _typs: dict[str, Any]  # the recording's own message definitions
+    _cdr_store: Any = None  # ROS 1 sources: typestore that converts to CDR (built on first use)
 
     def _warn(self, text: str) -> None:
         self.warnings.append(text)
@@ -412,10 +415,6 @@ class _Source:
     def messages(self, topics: Collection[str] | None) -> Iterator[tuple[str, str, int, bytes]]:
         """Yield ``(topic, msgtype, log_time_ns, raw)`` in log-time order; raw is CDR (ROS 2) or ROS 1."""
         raise NotImplementedError
-
-    typestore: Any
-    _typs: dict[str, Any]
-    _cdr_store: Any = None
 
     def _build_typestore(self, needed: Collection[str]) -> None:
         """``typestore`` from the recording's definitions ``_typs``: as they are for ROS 1 (its Header has
@@ -463,7 +462,6 @@ class _RosbagsSource(_Source):
         self.storage = storage
         self.is_ros1 = ros1
         self.warnings = []
-        self._cdr_store: Any = None
         with self._reader() as reader:
             conns = list(reader.connections)
             counts: dict[str, int] = {}
@@ -697,7 +695,6 @@ class _StreamMcapSource(_Source):
                     if ch is None or (topics is not None and ch[0] not in topics):
                         continue
                     yield ch[0], ch[1], int(m.log_time), m.data
-
 
 
 def _ros2_msgtype(name: str) -> str:
@@ -1397,9 +1394,11 @@ def open_recording(
             notes.append(f"using calibration from {info_path} instead of the recording's {info}")
         info = None
     elif info is None:
-        notes.append("no CameraInfo in the recording; give the calibration as a YAML file (walker-gait process --camera-info FILE.yaml, camera_info_file in Python)")
+        notes.append("no CameraInfo in the recording; give the calibration as a YAML file "
+                     "(walker-gait process --camera-info FILE.yaml, camera_info_file in Python)")
     elif topics[info].count == 0:
-        notes.append(f"CameraInfo topic {info} has no messages; pass camera_info_file for the calibration")
+        notes.append(f"CameraInfo topic {info} has no messages; give the calibration as a YAML file "
+                     "(walker-gait process --camera-info FILE.yaml, camera_info_file in Python)")
 
     for note in notes:
         warnings.warn(f"{path_str}: {note}", RecordingWarning, stacklevel=2)
