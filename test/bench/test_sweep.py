@@ -70,6 +70,7 @@ def test_report_pools_per_seed_and_scenario() -> None:
     assert rep["per_scenario"]["normal"]["matched_steps"] == 4
     table = sweep.format_table({"x": rep})
     assert "| heel err cm | 2.00 | 2.00 |" in table
+    assert "| hip err cm | 0.00 | 0.00 |" in table  # the joints out of the camera's view are shown too
 
 
 def test_reanalyse_runs_the_gait_analyzer_on_the_kept_poses(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:

@@ -295,7 +295,8 @@ def report(runs: list[SessionRun], *, with_oracle: bool = False) -> dict[str, An
 
 
 _ROWS = (("heel err cm", ("joint_err_cm", "heel")), ("toe err cm", ("joint_err_cm", "toe")),
-         ("ankle err cm", ("joint_err_cm", "ankle")), ("frames > 10 cm %", ("frames_over_10cm_pct",)),
+         ("ankle err cm", ("joint_err_cm", "ankle")), ("knee err cm", ("joint_err_cm", "knee")),
+         ("hip err cm", ("joint_err_cm", "hip")), ("frames > 10 cm %", ("frames_over_10cm_pct",)),
          ("good-frame heel cm", ("good_frame_err_cm", "heel")), ("good-frame toe cm", ("good_frame_err_cm", "toe")),
          ("foot length bias cm", ("foot_length_bias_cm",)), ("matched steps", ("matched_steps",)),
          ("recall in view", ("recall_in_view",)), ("precision", ("precision",)),
