@@ -206,7 +206,7 @@ PAPER = TrackerConfig(
 λ2 = 1/3 mm⁻¹, plain SIR (no partitions/annealing), constant velocity."""
 
 DEFAULT = TrackerConfig(
-    n_particles=96,
+    n_particles=192,
     cue="combined",
     fg_fraction=0.1,
     fg_max_points=128,
@@ -231,7 +231,7 @@ DEFAULT = TrackerConfig(
     foot_pitch_prior_sigma=0.3,
     elliptic_foot=True,
 )
-"""Real-time preset: partitioned annealed sampling with 96 particles; coarse layers weighted by the 3D
+"""Real-time preset: partitioned annealed sampling with 192 particles; coarse layers weighted by the 3D
 cue, final layers by the combined cue with a 64x48 2D cue."""
 
 PRESETS: dict[str, TrackerConfig] = {"paper": PAPER, "default": DEFAULT}
