@@ -121,10 +121,12 @@ def test_short_double_support_with_noisy_feet(swing_fraction: float) -> None:
         assert r["step_length_mae"] < 0.03
 
 
-TRACKED = REPO / "test" / "core" / "data" / "tracked_asymmetric_gait.npz"
-"""Tracker output (``default`` preset, tracker seed 0, ``make sweep`` set A) of two 8 s synthetic ``asymmetric``
-sessions, 141 and 142: per frame the LegPose points, visibility, status and confidence and the pipeline's
-floor, plus the true heel strikes.  Poses as the live and offline pipelines give them to the analyzer."""
+TRACKED = REPO / "test" / "core" / "data" / "tracked_sessions.npz"
+"""Tracker output (``default`` preset) of 8 s synthetic sessions from ``make sweep``: ``a141``, ``a142``
+(``asymmetric``, set A, 96 particles, tracker seed 0), ``b541`` (``asymmetric``, set B, 192 particles, seed 0) and
+``a132`` (``occlusion``, set A, 192 particles, seed 1): per frame the LegPose points, visibility, status and
+confidence and the pipeline's floor, plus the true heel strikes.  Poses as the live and offline pipelines give
+them to the analyzer."""
 
 
 def _tracked(name: str) -> tuple[list[LegPose], list[FloorPlane], list[Step]]:
@@ -161,6 +163,27 @@ def test_tracked_gait_initiation_with_dragged_swinging_heel() -> None:
     poses, floors, gt = _tracked("a142")
     pairs, missed, extra = match_steps(gt, run_analyzer(poses, floors).steps)
     assert not missed and not extra, ([gt[i].stamp for i in missed], [gt[i].stamp for i, _ in pairs][:3])
+
+
+def test_tracked_late_heel_strike_takes_the_trailing_footprint_not_its_swinging_toe() -> None:
+    """Sessions b541 and a132: the tracked leading heel comes to rest late (after the other foot's toe off), so no
+    frame after the heel strike has the trailing toe on the floor.  Its footprint then comes from the frames in
+    which it was planted (the planted-foot fit), not from the toe already swinging forward at that frame.
+    (Before, with the raw toe: b541 step length MAE 7.5 cm, two steps short by 19 and 24 cm; a132 four steps short
+    by more than 20 cm.  Now 4.6 cm; two.)"""
+    poses, floors, gt = _tracked("b541")
+    det = run_analyzer(poses, floors).steps
+    pairs, missed, extra = match_steps(gt, det)
+    err = np.array([det[j].step_length - gt[i].step_length for i, j in pairs])
+    assert len(pairs) == len(gt) and not extra
+    assert np.mean(np.abs(err)) < 0.06  # measured 0.046
+    assert np.min(err) > -0.15  # measured -0.107
+    poses, floors, gt = _tracked("a132")
+    det = run_analyzer(poses, floors).steps
+    pairs, _, _ = match_steps(gt, det)
+    err = np.array([det[j].step_length - gt[i].step_length for i, j in pairs])
+    assert len(pairs) >= 10
+    assert np.sum(err < -0.2) <= 2  # measured 2 (-21, -39 cm: the tracker's own foot errors)
 
 
 def test_temporal_parameters_match_ground_truth() -> None:

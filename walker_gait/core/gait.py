@@ -32,7 +32,8 @@ Method in short (all geometry in the floor plane of the *walker* frame, see ``ty
    while A was flat on the floor.  Both terms are measured in the same frame at the same
    instant, so the walker's own motion cancels exactly; where the tracker reports A's foot hidden
    (late in its stance, behind B's leg), ``toe_A`` continues the drift seen while it was in view
-   (:meth:`GaitAnalyzer._planted_toe`).  The component across the line of
+   (:meth:`GaitAnalyzer._planted_toe`), and so it does, seen or not, where B's strike is timed so late that A's
+   toe is already off the floor.  The component across the line of
    progression (step width) comes from the ankles instead (``ankle + heel-ankle offset`` of each
    foot, see :meth:`GaitAnalyzer._ankle_vector`): far less sensitive to foot yaw errors.  Step vectors are chained into a
    footprint map; the line of progression is the mean direction of the last
@@ -992,7 +993,7 @@ class GaitAnalyzer:
             self._pending_steps[-1].t_end = self._feet[b].to[-1]
         self._feet[a].hs.append(t_hs)
 
-    def _planted_toe(self, idx: NDArray[np.intp], f: int, t_from: float) -> FloatArray:
+    def _planted_toe(self, idx: NDArray[np.intp], f: int, t_from: float, *, fit_only: bool = False) -> FloatArray:
         """``(len(idx), 2)`` xy (walker frame) of the toe of planted foot ``f`` at frames ``idx``.
 
         While a foot is planted, its points drift through the walker frame only with the walker's smooth motion.  Late in
@@ -1004,7 +1005,8 @@ class GaitAnalyzer:
         the frame quality and the square of the foot's visibility, so where the foot is hidden it
         continues the drift seen before.  The result is ``v² x raw + (1 - v²) x fit`` with ``v`` the
         foot's visibility at that frame: a foot in view keeps its raw position, poses without visibility
-        count as in view.  Raw positions when the fit is off or has too little data.
+        count as in view.  With ``fit_only`` the fit alone (frames at which the foot is known to be off the
+        floor already: its raw position is no footprint).  Raw positions when the fit is off or has too little data.
         """
         series = self._raw[:, f, _T, :2]
         raw = series[idx]
@@ -1033,6 +1035,8 @@ class GaitAnalyzer:
                 continue
             slope = (w * (dt - mt)) @ (xy - mean) / (sw * var)
             out[i] = mean - mt * slope  # value at dt = 0
+        if fit_only:
+            return out
         alpha = self._vis[idx, f][:, None] ** 2  # a fully seen foot keeps its raw position
         return alpha * raw + (1.0 - alpha) * out
 
@@ -1069,6 +1073,9 @@ class GaitAnalyzer:
         # the other toe is the reference only while it is on the floor (a late toe-off detection must not
         # let its forward swing shorten the step)
         planted = idx[self._weight[idx, b, _T] >= 0.5]
+        # none planted (heel strike timed late, after the other foot's toe off): that toe is already swinging, its
+        # footprint comes from the frames in which it was planted
+        fit_only = planted.size == 0
         idx = planted if planted.size else idx[:1]
         fallback = ps.o_fallback
         o = ps.o_opp
@@ -1081,7 +1088,7 @@ class GaitAnalyzer:
         hs_b = [t for t in self._feet[b].hs if t < ps.t_hs]
         t_from = max(hs_b[-1] if hs_b else -math.inf, ps.t_hs - c.planted_fit_window_s)
         if idx.size:
-            toe_b = self._planted_toe(idx, b, t_from)
+            toe_b = self._planted_toe(idx, b, t_from, fit_only=fit_only)
             v = self._raw[idx, a, _H, :2] - toe_b - o
             d = v.mean(axis=0)
             lateral = self._ankle_vector(idx, a, b)
@@ -1089,7 +1096,7 @@ class GaitAnalyzer:
             near = self._valid_range(ps.t_hs - 0.1, ps.t_hs + 0.1)
             if near.size:
                 kn = near[int(np.argmin(np.abs(self._t[near] - ps.t_hs)))]
-                toe_b = self._planted_toe(np.array([kn]), b, t_from)[0]
+                toe_b = self._planted_toe(np.array([kn]), b, t_from, fit_only=bool(self._weight[kn, b, _T] < 0.5))[0]
                 d = self._raw[kn, a, _H, :2] - toe_b - o
             else:  # tracking gap around the heel strike
                 d = np.full(2, np.nan)
