@@ -36,7 +36,7 @@ from walker_gait.core.gait import (
     _rot2,
     summarize_steps,
 )
-from walker_gait.core.types import HEEL, TOE, EventKind, FloorPlane, LegPose, Side, Step, TrackStatus
+from walker_gait.core.types import HEEL, TOE, EventKind, FloatArray, FloorPlane, LegPose, Side, Step, TrackStatus
 
 REPO = Path(__file__).resolve().parents[2]
 
@@ -145,6 +145,16 @@ def _tracked(name: str) -> tuple[list[LegPose], list[FloorPlane], list[Step]]:
     return poses, floors, gt
 
 
+def _tracked_steps(name: str) -> tuple[list[tuple[int, int]], list[int], list[int], FloatArray]:
+    """The analyzer on tracked session ``name``: matching against the true steps, and the step length error (m)
+    of each matched pair."""
+    poses, floors, gt = _tracked(name)
+    det = run_analyzer(poses, floors).steps
+    pairs, missed, extra = match_steps(gt, det)
+    err = np.array([det[j].step_length - gt[i].step_length for i, j in pairs])
+    return pairs, missed, extra, err
+
+
 def test_tracked_foot_held_toe_down_still_lands() -> None:
     """Session 141: the tracker pitches planted feet toe-down (from the front, the shoe's top hides the heel),
     holding the heel 4-6 cm up through whole stances.  A foot whose toe is planted and whose heel has stopped
@@ -171,17 +181,11 @@ def test_tracked_late_heel_strike_takes_the_trailing_footprint_not_its_swinging_
     which it was planted (the planted-foot fit), not from the toe already swinging forward at that frame.
     (Before, with the raw toe: b541 step length MAE 7.5 cm, two steps short by 19 and 24 cm; a132 four steps short
     by more than 20 cm.  Now 4.6 cm; two.)"""
-    poses, floors, gt = _tracked("b541")
-    det = run_analyzer(poses, floors).steps
-    pairs, missed, extra = match_steps(gt, det)
-    err = np.array([det[j].step_length - gt[i].step_length for i, j in pairs])
-    assert len(pairs) == len(gt) and not extra
+    _, missed, extra, err = _tracked_steps("b541")
+    assert not missed and not extra
     assert np.mean(np.abs(err)) < 0.06  # measured 0.046
     assert np.min(err) > -0.15  # measured -0.107
-    poses, floors, gt = _tracked("a132")
-    det = run_analyzer(poses, floors).steps
-    pairs, _, _ = match_steps(gt, det)
-    err = np.array([det[j].step_length - gt[i].step_length for i, j in pairs])
+    pairs, _, _, err = _tracked_steps("a132")
     assert len(pairs) >= 10
     assert np.sum(err < -0.2) <= 2  # measured 2 (-21, -39 cm: the tracker's own foot errors)
 
