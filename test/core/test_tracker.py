@@ -198,22 +198,30 @@ def test_segment_visibility_follows_the_observed_depth() -> None:
     seg = body.to_camera(kin.segments).reshape(1, 6, 2, 3)
     rad = kin.radii.reshape(1, 6, 2)
 
-    def visibility(depth: np.ndarray, points: np.ndarray) -> np.ndarray:
+    unsupported = {}
+
+    def visibility(depth: np.ndarray, points: np.ndarray, name: str) -> np.ndarray:
         frame = tracker._prepare(points.astype(float), depth, floor)
-        return tracker._visibility(frame, seg, rad)
+        vis, unsupported[name] = tracker._visibility(frame, seg, rad)
+        return vis
 
     full = render_frame(state, intrinsics=KINECT, floor=floor, mounting="facing_user",
                         rng=np.random.default_rng(1), noise_m=0.0)
-    vis = visibility(full.depth, full.points)
+    vis = visibility(full.depth, full.points, "full")
     assert np.all(vis[:, 1:] > 0.8), vis  # calves and feet are in view (thigh tops leave the image)
     no_left = render_frame(state, intrinsics=KINECT, floor=floor, mounting="facing_user",
                            rng=np.random.default_rng(1), noise_m=0.0, drop_leg=0)
-    vis = visibility(no_left.depth, no_left.points)
+    vis = visibility(no_left.depth, no_left.points, "no_left")
     assert np.all(vis[0] < 0.2) and np.all(vis[1, 1:] > 0.8), vis
     # an observed surface 20 cm in front of everything hides every segment
     occluded = np.where(np.isfinite(full.depth), full.depth - 0.2, np.nan).astype(np.float32)
-    vis = visibility(occluded, full.points)
+    vis = visibility(occluded, full.points, "occluded")
     assert np.all(vis < 0.05), vis
+    # nobody sees the left leg without its render, or any leg behind the near surface; only the first lies
+    # over nothing (background): the second is hidden, which is no sign of a lost track
+    assert unsupported["no_left"].tolist() == [True, False]
+    assert unsupported["full"].tolist() == [False, False]
+    assert unsupported["occluded"].tolist() == [False, False]
 
 
 @pytest.mark.parametrize("fine_2d_only", [False, True])
@@ -275,6 +283,40 @@ def test_redetects_when_the_second_leg_enters_view() -> None:
     with_redetection = late_error(DEFAULT.min_explained)
     assert with_redetection < 0.08
     assert late_error(0.0) > 2 * with_redetection  # the scenario does need the re-detection
+
+
+def test_reinitialises_when_a_leg_leaves_the_data(seq) -> None:  # noqa: ANN001
+    """A model leg pushed out of the view (here: every particle's left hip flexed to its limit, the leg
+    raised above the image) is not hidden, it is lost: with ``lost_leg_frames`` the track re-initialises
+    after that many frames and finds the leg again.  ``min_explained`` is off so that this rule alone acts
+    (on the walker the other model leg often explains both close legs' foreground, and nothing else fires)."""
+    L = lm.StateLayout
+    flex = L.LEFT.start + L.HIP_FLEX
+
+    def run(lost_leg_frames: int, seed: int) -> tuple[int, list[float]]:
+        cfg = preset("default", n_particles=64, init_rounds=4, min_explained=0.0, lost_leg_frames=lost_leg_frames)
+        tr = LegTracker(cfg, KINECT, rng=np.random.default_rng(seed))
+        _run(tr, seq.frames[:8])
+        assert tr.particles is not None
+        x = tr.particles
+        x[:, flex] = lm.STATE_UPPER[flex]
+        x[:, L.LEFT.start + L.KNEE_FLEX] = 0.0
+        tr._x, _, _ = lm.enforce_constraints(x, fallback=tr.particles)
+        tr._x_prev = tr._x.copy()
+        inits: list[int] = []
+        search = tr._initialise
+        tr._initialise = lambda frame: (inits.append(1), search(frame))[1]  # type: ignore[method-assign]
+        poses = _run(tr, seq.frames[8:24])
+        foot = [float(np.linalg.norm(p.points[0, 2:] - f.gt[0, 2:], axis=-1).mean()) for p, f in zip(poses, seq.frames[8:24])]
+        return len(inits), foot
+
+    for seed in (0, 1):
+        n_init, foot = run(6, seed)
+        assert n_init == 1
+        assert min(foot[:5]) > 0.5  # lost for the first frames (the raised foot is ~1 m off) ...
+        assert max(foot[8:]) < 0.1, foot  # ... then found again (left ankle, heel, toe)
+        n_init, foot = run(0, seed)
+        assert n_init == 0 and min(foot) > 0.5, foot  # without the rule nothing brings it back
 
 
 def test_track_survives_a_brief_dropout(seq) -> None:  # noqa: ANN001

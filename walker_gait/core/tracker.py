@@ -44,7 +44,14 @@ lives in the floor-aligned *body* frame of :mod:`walker_gait.core.leg_model`):
    (confidence < ``lost_confidence`` for ``lost_frames`` frames) re-initialises, and so does
    a track that leaves foreground unexplained (less than ``min_explained`` of it within
    ``support_tol`` of the model for ``lost_frames`` frames: e.g. both model legs locked on the
-   one leg that was in view when the user walked in, the other leg now visible).
+   one leg that was in view when the user walked in, the other leg now visible), and so does a track
+   one of whose legs has left the data (``lost_leg_frames``: its calf and foot out of the image or over
+   background, nothing observed in front of them, for that many frames).  The hidden-part machine of
+   step 6 cannot tell such a leg from a hidden one (nobody sees either) and takes it out of the
+   likelihood, where nothing brings it back; with the user's legs close together the other model leg
+   explains both legs' foreground, so neither the confidence nor ``min_explained`` fires (the sweep's
+   absent-start and occlusion sessions: a model leg held above or beside the image, 40-70 cm off, for
+   seconds).
 
 Left/right identity: the state keeps the left hip at +y (anatomical left) of the right hip
 (``|hip_azimuth| < 0.7``) and the detection assigns blobs by the same axis, so legs cannot
@@ -93,11 +100,13 @@ from walker_gait.core.types import (
 )
 
 FloatArray = NDArray[np.float64]
+BoolArray = NDArray[np.bool_]
 L = StateLayout
 
 Cue = Literal["3d", "2d", "combined"]
 
 _VIS_POINTS = 10  # interior axis points per segment sampled by the visibility test
+_UNSUPPORTED_MAX = 0.1  # a leg's calf + foot with at most this share of their counted axis points seen or hidden lie over nothing
 
 
 class TrackerInputError(ValueError):
@@ -160,6 +169,7 @@ class TrackerConfig:
     lost_confidence: float = 0.25  # below this for `lost_frames` frames: re-initialise
     lost_frames: int = 8
     min_explained: float = 0.0  # fraction of foreground the estimate must explain; below it for `lost_frames` frames: re-initialise (0 = off)
+    lost_leg_frames: int = 0  # frames a leg's calf and foot may lie over nothing (out of the image or over background, nothing in front of them) before the track re-initialises (0 = off)
     support_tol: float = 0.04  # m, surface distance counted as support for the confidence
     fg_min_height: float = 0.03  # m, floor cut of the segmentation (model surface below it is unobservable)
 
@@ -225,6 +235,7 @@ DEFAULT = TrackerConfig(
     velocity_damping=0.7,
     init_rounds=6,
     min_explained=0.75,
+    lost_leg_frames=6,
     coast_frames=15,
     fine_2d_only=True,
     sigma_root=0.008,
@@ -345,6 +356,7 @@ class LegTracker:
         self._mean: FloatArray | None = None
         self._last_ll: FloatArray | None = None
         self._low_conf = 0
+        self._unsupported_run = np.zeros(2, dtype=int)  # consecutive frames each leg's lower segments lay over nothing
         self._frames_tracked = 0
         self._hidden = _HiddenState()
         self.status = TrackStatus.NO_USER
@@ -409,8 +421,10 @@ class LegTracker:
         else:
             self._logw = self._evaluate(frame, self._x, legs=(0, 1), ref=None)
         self._last_ll = None
-        pose, conf, explained = self._estimate(frame, stamp)
+        pose, conf, explained, unsupported = self._estimate(frame, stamp)
         # track management
+        self._unsupported_run = np.where(unsupported, self._unsupported_run + 1, 0)
+        leg_lost = cfg.lost_leg_frames > 0 and bool(np.any(self._unsupported_run >= cfg.lost_leg_frames))
         if conf < cfg.lost_confidence or explained < cfg.min_explained:
             # lost, or locked onto part of the user (e.g. both model legs on the one leg that was in view
             # when the track started, the other leg unexplained): re-detect from the foreground
@@ -421,10 +435,12 @@ class LegTracker:
             status = TrackStatus.TRACKING if conf >= cfg.track_confidence else TrackStatus.SEARCHING
         else:
             status = TrackStatus.TRACKING if conf >= cfg.degraded_confidence else TrackStatus.DEGRADED
-        if self._low_conf >= cfg.lost_frames:
-            # lost: re-initialise from the foreground on the next frame
+        if self._low_conf >= cfg.lost_frames or leg_lost:
+            # lost (or a leg escaped the data: its calf and foot out of the image or over background, with
+            # nothing in front of them that could hide them): re-initialise from the foreground on the next frame
             self._x = None
             self._low_conf = 0
+            self._unsupported_run[:] = 0
             status = TrackStatus.SEARCHING
         self.status = status
         pose.status = status
@@ -701,8 +717,9 @@ class LegTracker:
         self._low_conf = 0
 
     # -- estimate, visibility, confidence ----------------------------------------------
-    def _estimate(self, frame: _Frame, stamp: float) -> tuple[LegPose, float, float]:
-        """Pose estimate, its confidence and the fraction of foreground it explains."""
+    def _estimate(self, frame: _Frame, stamp: float) -> tuple[LegPose, float, float, BoolArray]:
+        """Pose estimate, its confidence, the fraction of foreground it explains and, per leg, whether
+        its calf and foot lie over nothing (see :meth:`_visibility`)."""
         assert self._x is not None and self._logw is not None
         w = normalise_log_weights(self._logw)
         mean = w @ self._x
@@ -711,7 +728,7 @@ class LegTracker:
         mean_c, kin_mean, _ = lm.enforce_constraints(mean[None])
         self._mean = mean_c[0]
         seg_c, rad, _ = self._cam_segments(frame, kin_mean, (0, 1))
-        visibility = self._visibility(frame, seg_c, rad)
+        visibility, unsupported = self._visibility(frame, seg_c, rad)
         conf, explained = self._confidence(frame, seg_c, rad)
         if self.config.hidden_parts:
             self._update_hidden(visibility)
@@ -726,10 +743,11 @@ class LegTracker:
             confidence=conf,
             ess=effective_sample_size(self._logw),
         )
-        return pose, conf, explained
+        return pose, conf, explained, unsupported
 
-    def _visibility(self, frame: _Frame, seg_c: FloatArray, rad: FloatArray) -> FloatArray:
-        """``(2, 3)`` fraction of each segment's axis points whose pixel shows its surface.
+    def _visibility(self, frame: _Frame, seg_c: FloatArray, rad: FloatArray) -> tuple[FloatArray, BoolArray]:
+        """``(2, 3)`` fraction of each segment's axis points whose pixel shows its surface, and ``(2,)``
+        whether each leg's calf and foot lie over nothing.
 
         A point (12 per segment, on the axis, with the local radius) counts as seen when it
         projects into the image onto foreground whose depth is not clearly in front of the
@@ -746,7 +764,18 @@ class LegTracker:
         counted = ~cue.below_cut(pts, wd) if cue.min_height > 0 else np.ones_like(seen)
         n = counted.sum(axis=1)
         vis = np.where(n > 0, (seen & counted).sum(axis=1) / np.maximum(n, 1), 0.0)
-        return vis.reshape(2, 3)
+        # A segment nobody can see is either hidden (observed surface in front of it: the other leg, an
+        # object) or it is where the data say there is no leg (out of the image, over background).  The
+        # lower leg of a user at the walker is in view (ankles in 100 % of the frames of every synthetic
+        # scenario), so a calf and foot that lie over nothing mean the estimate has left the data
+        # (the hidden-part machine would otherwise take them out of the likelihood and let them stay there).
+        front = inside & (obs > 0) & ~seen
+        lower = counted.reshape(2, 3, -1)[:, 1:].reshape(2, -1)
+        n_low = lower.sum(axis=1)
+        seen_low = (seen.reshape(2, 3, -1)[:, 1:].reshape(2, -1) & lower).sum(axis=1)
+        front_low = (front.reshape(2, 3, -1)[:, 1:].reshape(2, -1) & lower).sum(axis=1)
+        unsupported = (n_low > 0) & (seen_low + front_low <= _UNSUPPORTED_MAX * n_low)
+        return vis.reshape(2, 3), unsupported
 
     def _confidence(self, frame: _Frame, seg_c: FloatArray, rad: FloatArray) -> tuple[float, float]:
         """``(confidence, explained)``: ``explained`` = fraction of foreground explained (surface
