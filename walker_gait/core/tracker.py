@@ -769,12 +769,10 @@ class LegTracker:
         # lower leg of a user at the walker is in view (ankles in 100 % of the frames of every synthetic
         # scenario), so a calf and foot that lie over nothing mean the estimate has left the data
         # (the hidden-part machine would otherwise take them out of the likelihood and let them stay there).
-        front = inside & (obs > 0) & ~seen
-        lower = counted.reshape(2, 3, -1)[:, 1:].reshape(2, -1)
-        n_low = lower.sum(axis=1)
-        seen_low = (seen.reshape(2, 3, -1)[:, 1:].reshape(2, -1) & lower).sum(axis=1)
-        front_low = (front.reshape(2, 3, -1)[:, 1:].reshape(2, -1) & lower).sum(axis=1)
-        unsupported = (n_low > 0) & (seen_low + front_low <= _UNSUPPORTED_MAX * n_low)
+        held = (seen | (inside & (obs > 0))) & counted  # seen, or observed surface in front of it
+        n_low = counted.reshape(2, 3, -1)[:, 1:].sum(axis=(1, 2))
+        held_low = held.reshape(2, 3, -1)[:, 1:].sum(axis=(1, 2))
+        unsupported = (n_low > 0) & (held_low <= _UNSUPPORTED_MAX * n_low)
         return vis.reshape(2, 3), unsupported
 
     def _confidence(self, frame: _Frame, seg_c: FloatArray, rad: FloatArray) -> tuple[float, float]:
