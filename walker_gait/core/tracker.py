@@ -769,7 +769,7 @@ class LegTracker:
         # lower leg of a user at the walker is in view (ankles in 100 % of the frames of every synthetic
         # scenario), so a calf and foot that lie over nothing mean the estimate has left the data
         # (the hidden-part machine would otherwise take them out of the likelihood and let them stay there).
-        held = (seen | (inside & (obs > 0))) & counted  # seen, or observed surface in front of it
+        held = inside & (obs > 0) & counted  # observed surface at the point's pixel: it is seen, or hidden behind it
         n_low = counted.reshape(2, 3, -1)[:, 1:].sum(axis=(1, 2))
         held_low = held.reshape(2, 3, -1)[:, 1:].sum(axis=(1, 2))
         unsupported = (n_low > 0) & (held_low <= _UNSUPPORTED_MAX * n_low)
