@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import functools
+from dataclasses import replace
 import math
 from pathlib import Path
 
@@ -38,6 +39,8 @@ from walker_gait.core.segmentation import (
     RoiConfig,
     Segmenter,
     SegmenterConfig,
+    StaticMaskConfig,
+    StaticStructureMask,
     fit_floor_ransac,
     thin_parts,
 )
@@ -416,6 +419,94 @@ def test_segmenter_hmm_removes_static_walker_bar_keeps_moving_legs() -> None:
     q = _quality(seg, 8, rng, start=90, intrinsics=QVGA)
     assert q["bar_kept"] < 0.05  # the walker's cross-bar, static in the camera frame, is removed
     assert q["leg_kept"] >= 0.98  # the moving legs are kept
+
+
+# --------------------------------------------------------------------------- static structure (camera frame)
+
+
+def _blocks(shift: int, *, leg_depth: float = 1.0) -> tuple[np.ndarray, np.ndarray]:
+    """A 60x80 depth image: floor far away (3 m, not a candidate), a static 'wheel' block at 0.6 m and a
+    'leg' block at ``leg_depth`` whose column offset is ``shift``."""
+    z = np.full((60, 80), 3.0, np.float32)
+    cand = np.zeros((60, 80), bool)
+    z[30:50, 4:16] = 0.6
+    cand[30:50, 4:16] = True
+    z[10:50, 30 + shift : 42 + shift] = leg_depth
+    cand[10:50, 30 + shift : 42 + shift] = True
+    return z, cand
+
+
+def test_static_mask_learns_structure_only_while_the_user_moves() -> None:
+    cfg = StaticMaskConfig(frames=20, grid_stride=2)
+    sm = StaticStructureMask(cfg)
+    # the user stands still: nothing moves, nothing is learned however long it lasts (legs stay foreground)
+    for _ in range(5 * cfg.frames):
+        z, cand = _blocks(0)
+        sm.update(z, cand)
+        assert not sm.static_pixels(z, cand).any()
+    assert sm.moving_frames == 0
+    # the user walks (the leg block moves every frame): after `frames` moving frames the wheel is structure
+    for i in range(cfg.frames + 2):
+        k = (i + 1) % 4  # the leg moves sideways (by whole grid cells) and in depth, as walking legs do
+        z, cand = _blocks(2 * k, leg_depth=0.9 + 0.1 * k)
+        assert sm.update(z, cand)
+        got = sm.static_pixels(z, cand)
+        if i < cfg.frames - 1:
+            assert not got.any()
+    assert got[30:50, 4:16].all()  # the whole wheel, edges included
+    assert not (got & ~cand).any()
+    assert got.sum() == 20 * 12  # and nothing of the leg
+    # a leg in front of the learned wheel stays foreground; the wheel beside it is still removed
+    z, cand = _blocks(0)
+    z[30:50, 8:12] = 0.5
+    sm.update(z, cand)
+    got = sm.static_pixels(z, cand)
+    assert not got[30:50, 8:12].any() and got[30:50, 4:8].all() and got[30:50, 12:16].all()
+
+
+def test_static_mask_forgets_structure_that_has_gone() -> None:
+    sm = StaticStructureMask(StaticMaskConfig(frames=5, grid_stride=1))
+    for i in range(8):
+        sm.update(*_blocks(i % 4, leg_depth=1.0 + 0.1 * (i % 4)))
+    z, cand = _blocks(0)
+    assert sm.static_pixels(z, cand)[30:50, 4:16].all()
+    # the wheel is taken off: the camera sees the far floor where it was
+    z[30:50, 4:16] = 3.0
+    cand[30:50, 4:16] = False
+    sm.update(z, cand)
+    assert not sm.learned[30:50, 4:16].any()
+    # something put there later (nearer or farther) is new, not the old structure
+    z[30:50, 4:16] = 0.8
+    cand[30:50, 4:16] = True
+    sm.update(z, cand)
+    assert not sm.static_pixels(z, cand).any()
+    # another image size (a new camera) starts from scratch
+    sm.update(np.ones((10, 10), np.float32), np.ones((10, 10), bool))
+    assert not sm.learned.any() and sm.moving_frames == 0
+
+
+def test_segmenter_static_mask_removes_walker_bar_keeps_legs() -> None:
+    """The walker's cross-bar (thin-part filter off, so the static mask alone) goes once the legs have moved
+    for `frames` frames; moving legs are kept throughout, and so are legs that stand still."""
+    rng = np.random.default_rng(11)
+    cfg = SegmenterConfig(min_part_width=0.0, static_mask=StaticMaskConfig(frames=30))
+    seg = Segmenter(cfg, rng=rng, intrinsics=QVGA)
+    early = _quality(seg, 20, rng, intrinsics=QVGA)
+    assert early["bar_kept"] > 0.5 and early["leg_kept"] >= 0.98
+    _quality(seg, 30, rng, start=20, intrinsics=QVGA)
+    q = _quality(seg, 10, rng, start=50, intrinsics=QVGA)
+    assert q["bar_kept"] < 0.05 and q["leg_kept"] >= 0.98
+    assert seg.static is not None and seg.static.moving_frames >= 45
+    # without it the bar stays
+    off = Segmenter(replace(cfg, static_mask=StaticMaskConfig(enabled=False)), rng=rng, intrinsics=QVGA)
+    assert off.static is None
+    assert _quality(off, 60, rng, intrinsics=QVGA)["bar_kept"] > 0.5
+    # a user standing still (same leg positions every frame, only sensor noise) is never learned
+    still = Segmenter(cfg, rng=rng, intrinsics=QVGA)
+    for _ in range(4 * 30):
+        q = _quality(still, 1, rng, intrinsics=QVGA)
+        assert q["leg_kept"] >= 0.98
+    assert still.static is not None and still.static.moving_frames < 10
 
 
 # --------------------------------------------------------------------------- robustness

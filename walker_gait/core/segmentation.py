@@ -14,8 +14,9 @@ Pipeline of :meth:`Segmenter.process` (seed paper 000 §4.2, plus robustness):
    (``floor_method="background"``, :class:`BackgroundModel`);
 3. region of interest: a box in the floor-aligned **walker frame** (x forward from
    the camera towards the user, y = the camera's left, z up; :class:`RoiConfig`);
-4. optional removal of structure that is static in the camera frame (the walker's
-   own frame) with the 3-state occupancy-grid HMM of paper 003 §III-A (:class:`OccupancyHMM`).
+4. removal of the walker's own parts: parts thinner than a leg (:func:`thin_parts`), structure that
+   keeps its pixels and depth while the user moves (:class:`StaticStructureMask`, on by default) and,
+   optionally, what the 3-state occupancy-grid HMM of paper 003 §III-A calls static (:class:`OccupancyHMM`).
 """
 
 from __future__ import annotations
@@ -46,6 +47,8 @@ __all__ = [
     "Segmentation",
     "Segmenter",
     "SegmenterConfig",
+    "StaticMaskConfig",
+    "StaticStructureMask",
     "fit_floor_ransac",
     "invalid_floor",
 ]
@@ -904,6 +907,149 @@ class OccupancyHMM:
         return self.static_cells(self.cell_index(points_walker))
 
 
+# =========================================================================== static structure (camera frame)
+
+
+@dataclass(kw_only=True)
+class StaticMaskConfig:
+    """Removal of structure that stays put in the camera frame while the scene moves (:class:`StaticStructureMask`)."""
+
+    enabled: bool = True
+    """Learn and remove static structure (the walker's own wheels and frame, an object carried on it)."""
+    frames: int = 60
+    """Moving frames (see ``motion_fraction``) a pixel's depth must stay unchanged before it counts as
+    structure (60 = 2 s of the user moving at 30 Hz)."""
+    tolerance: float = 0.03
+    """Depth change (m, at zero range) still counted as "unchanged"."""
+    tolerance_per_m2: float = 0.0092
+    """Growth of the tolerance with the squared depth (m per m²; Kinect disparity noise)."""
+    motion_fraction: float = 0.03
+    """A frame counts as moving when at least this fraction of the candidate cells changed depth
+    (something moved: the user).  Frames in which nothing moves (a user standing still, an empty
+    view) teach nothing, so legs standing still are never learned as structure."""
+    grid_stride: int = 4
+    """Image pixels per model cell along each axis (the model runs on a sub-sampled grid)."""
+
+    def validate(self) -> None:
+        if self.frames < 1:
+            raise ValueError(f"static_mask.frames must be >= 1, got {self.frames}")
+        if not (self.tolerance >= 0 and self.tolerance_per_m2 >= 0):
+            raise ValueError("static_mask tolerances must be >= 0")
+        if not (0 < self.motion_fraction <= 1):
+            raise ValueError(f"static_mask.motion_fraction must be in (0, 1], got {self.motion_fraction}")
+        if self.grid_stride < 1:
+            raise ValueError(f"static_mask.grid_stride must be >= 1, got {self.grid_stride}")
+
+
+_MIN_MOVING_CELLS = 8  # fewer changed cells than this never make a moving frame (edge flicker)
+
+
+class StaticStructureMask:
+    """Per-pixel model of foreground that does not move in the camera frame while the user does.
+
+    The camera rides on the walker, so the walker's own parts (rear wheels seen face-on, frame, a
+    basket) sit at the same pixels and depths in every frame, and a region of interest that follows
+    the user sideways can take them in.  Per cell of a sub-sampled grid the model keeps a reference
+    depth and counts the *moving* frames in which the cell still shows it: frames in which a
+    noticeable part of the candidate foreground changed depth, i.e. the user moved.  A cell counted
+    ``frames`` times is structure; its pixels are removed wherever they still show the reference
+    depth, so a leg passing in front of a wheel stays foreground.  A cell through which the camera
+    sees farther than the reference (the structure has gone) or, before it is learned, something
+    nearer is re-learned from scratch.  A user standing still makes no moving frames, so still legs
+    are not learned; one leg held still for ``frames`` moving frames of the other one (the walker
+    stopped) would be, until it moves.
+    """
+
+    def __init__(self, config: StaticMaskConfig | None = None) -> None:
+        self.config = config or StaticMaskConfig()
+        self.config.validate()
+        self._ref: F32 = np.empty((0, 0), dtype=np.float32)
+        self._count: NDArray[np.int32] = np.empty((0, 0), dtype=np.int32)
+        self._shape: tuple[int, int] = (0, 0)
+        self.moving_frames = 0
+        """Moving frames seen so far."""
+
+    def reset(self) -> None:
+        """Forget everything learned."""
+        self._shape = (0, 0)
+        self.moving_frames = 0
+
+    @property
+    def learned(self) -> BoolArray:
+        """``(h, w)`` cells currently counted as static structure (sub-sampled grid)."""
+        return self._count >= self.config.frames
+
+    def _tol(self, z: F32) -> F32:
+        c = self.config
+        return (np.float32(c.tolerance) + np.float32(c.tolerance_per_m2) * z * z).astype(np.float32, copy=False)
+
+    def update(self, depth_m: F32, candidates: BoolArray) -> bool:
+        """Learn from one frame: ``depth_m`` ``(H, W)`` float32 m (NaN invalid), ``candidates`` ``(H, W)`` the
+        pixels that could be foreground (above the floor, in the reach of the region of interest).
+        Returns whether the frame counted as moving."""
+        s = self.config.grid_stride
+        z = depth_m[::s, ::s]
+        cand = candidates[::s, ::s]
+        first = self._shape != depth_m.shape
+        if first:  # (re)start: everything in view is new, which is no motion
+            self._shape = (int(depth_m.shape[0]), int(depth_m.shape[1]))
+            self._ref = np.full(z.shape, np.nan, dtype=np.float32)
+            self._count = np.zeros(z.shape, dtype=np.int32)
+            self.moving_frames = 0
+        ref, count = self._ref, self._count
+        with np.errstate(invalid="ignore"):
+            valid = z > 0  # NaN -> False
+            has = np.isfinite(ref)
+            tol = self._tol(np.where(has, ref, z))
+            diff = z - ref
+            same = has & valid & (np.abs(diff) <= tol)
+            farther = has & valid & (diff > tol)
+            nearer = has & valid & (diff < -tol) & (count < self.config.frames)
+        new = ~has & valid & cand
+        changed = farther | nearer | new
+        n_changed = int(np.count_nonzero(changed))
+        moving = not first and n_changed >= max(_MIN_MOVING_CELLS,
+                                                self.config.motion_fraction * int(np.count_nonzero(cand)))
+        keep = same & cand
+        ref[keep] += np.float32(0.1) * diff[keep]  # follow slow drift (temperature, noise)
+        if moving:
+            count[keep] += 1
+            self.moving_frames += 1
+        relearn = (farther | nearer | new) & cand
+        ref[relearn] = z[relearn]
+        count[changed] = 0
+        gone = farther & ~cand
+        ref[gone] = np.nan
+        return moving
+
+    def static_pixels(self, depth_m: F32, mask: BoolArray) -> BoolArray:
+        """``(H, W)`` pixels of ``mask`` that show learned structure (at its reference depth, within the
+        tolerance).  Each learned cell also claims its 8 neighbours' pixels, so the edges of a part are
+        removed with it."""
+        out = np.zeros(mask.shape, dtype=bool)
+        if self._shape != mask.shape:
+            return out
+        learned = self.learned
+        if not learned.any():
+            return out
+        s = self.config.grid_stride
+        ref = np.where(learned, self._ref, np.float32(0.0))
+        grown = ref.copy()  # becomes the farthest learned reference around each cell
+        for dy in (-1, 0, 1):
+            for dx in (-1, 0, 1):
+                if dy == 0 and dx == 0:
+                    continue
+                src = ref[max(dy, 0): ref.shape[0] + min(dy, 0), max(dx, 0): ref.shape[1] + min(dx, 0)]
+                dst = grown[max(-dy, 0): ref.shape[0] + min(-dy, 0), max(-dx, 0): ref.shape[1] + min(-dx, 0)]
+                np.maximum(dst, src, out=dst)
+        grown = np.where(learned, ref, grown)  # a learned cell keeps its own reference
+        h, w = mask.shape
+        full = np.repeat(np.repeat(grown, s, axis=0), s, axis=1)[:h, :w]
+        with np.errstate(invalid="ignore"):
+            out = mask & (full > 0) & (np.abs(depth_m - full) <= self._tol(full))
+        return out
+
+
 # =========================================================================== segmenter
 
 
@@ -939,6 +1085,8 @@ class SegmenterConfig:
     """Foreground thinner than this (m), across or along the image rows, is dropped: a walker's own
     tubes (posts, side bars, wheels seen edge-on: 2-4 cm) that reach into the ROI on other mounts;
     legs, trousers and shoes are wider (≥ ~7 cm).  0 = keep everything (seed)."""
+    static_mask: StaticMaskConfig = field(default_factory=StaticMaskConfig)
+    """Removal of structure that stays put in the camera frame while the user moves (:class:`StaticStructureMask`)."""
     use_occupancy_hmm: bool = False
     """Remove structure static in the camera frame with :class:`OccupancyHMM`."""
     hmm: HmmConfig = field(default_factory=HmmConfig)
@@ -957,6 +1105,7 @@ class SegmenterConfig:
             raise ValueError(f"min_part_width must be >= 0, got {self.min_part_width}")
         self.roi.validate()
         self.floor.validate()
+        self.static_mask.validate()
         self.hmm.validate()
 
 
@@ -984,7 +1133,7 @@ class Segmentation:
     n_outside_roi: int = 0
     """Valid non-floor pixels outside the ROI box."""
     n_static: int = 0
-    """Pixels removed by the occupancy HMM."""
+    """Pixels removed as structure static in the camera frame (static mask and occupancy HMM)."""
     n_thin: int = 0
     """Pixels removed as parts thinner than ``min_part_width``."""
     n_foreground: int = 0
@@ -1040,6 +1189,9 @@ class Segmenter:
         grid_roi = replace(roi, left=roi.left + roi.center_max_shift, right=roi.right + roi.center_max_shift)
         self.hmm: OccupancyHMM | None = (
             OccupancyHMM(self.config.hmm, grid_roi) if self.config.use_occupancy_hmm else None
+        )
+        self.static: StaticStructureMask | None = (
+            StaticStructureMask(self.config.static_mask) if self.config.static_mask.enabled else None
         )
         self.roi_shift = 0.0
         """Current lateral shift (m, walker +y) of the ROI box (auto-centring)."""
@@ -1140,14 +1292,18 @@ class Segmenter:
         xw: NDArray[np.float32] | None = None
         yw: NDArray[np.float32] | None = None
         h: NDArray[np.float32] | None = None
+        in_reach: BoolArray | None = None  # where the auto-centred box can reach (the static mask learns there)
         if floor.valid:
             xw, yw, h = self._walker_coords(pts, z, floor)
             in_roi = xw <= roi.forward  # in-place &= avoids temporaries (speed)
             in_roi &= xw >= roi.near
-            in_roi &= yw <= roi.left + self.roi_shift
-            in_roi &= yw >= self.roi_shift - roi.right
             if roi.max_height is not None:
                 in_roi &= h <= roi.max_height
+            if self.static is not None:
+                in_reach = in_roi & (yw <= roi.left + roi.center_max_shift)
+                in_reach &= yw >= -roi.right - roi.center_max_shift
+            in_roi &= yw <= roi.left + self.roi_shift
+            in_roi &= yw >= self.roi_shift - roi.right
         elif cfg.floor_method == "background" and not cfg.require_floor:
             # seed's camera-frame box: optical z forward, camera's left = optical -x
             x = pts[:, 0]
@@ -1176,19 +1332,24 @@ class Segmenter:
         cand_nf &= valid_f
         n_not_floor = int(np.count_nonzero(cand_nf))
         mask = cand_nf & in_roi
+        n_static = 0
+        if self.static is not None and in_reach is not None:
+            self.static.update(z, (cand_nf & in_reach).reshape(shape))
+            static_px = self.static.static_pixels(z, mask.reshape(shape)).reshape(-1)
+            n_static = int(np.count_nonzero(static_px))
+            mask &= ~static_px
         n_thin = 0
         if cfg.min_part_width > 0 and self.intrinsics is not None:
             thin = thin_parts(mask.reshape(shape), z, fx=self.intrinsics.fx, fy=self.intrinsics.fy,
                               min_width=cfg.min_part_width).reshape(-1)
             n_thin = int(np.count_nonzero(thin))
             mask &= ~thin
-        n_static = 0
         if self.hmm is not None and floor.valid and xw is not None and yw is not None and h is not None:
             idx = np.flatnonzero(mask)
             cells = self.hmm.cell_index_xyz(xw[idx], yw[idx], h[idx])
             self.hmm.update(cells=cells, floor=floor, depth_m=z, intrinsics=self.intrinsics)
             static = self.hmm.static_cells(cells)
-            n_static = int(np.count_nonzero(static))
+            n_static += int(np.count_nonzero(static))
             mask[idx[static]] = False
         if roi.center_max_shift > 0 and yw is not None and h is not None:
             self._follow_legs(mask, yw, h, zf)
