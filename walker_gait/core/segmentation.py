@@ -1015,7 +1015,7 @@ class StaticStructureMask:
         if moving:
             count[keep] += 1
             self.moving_frames += 1
-        relearn = (farther | nearer | new) & cand
+        relearn = changed & cand
         ref[relearn] = z[relearn]
         count[changed] = 0
         gone = farther & ~cand
