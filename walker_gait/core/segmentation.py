@@ -1032,16 +1032,11 @@ class StaticStructureMask:
         learned = self.learned
         if not learned.any():
             return out
+        import cv2
+
         s = self.config.grid_stride
         ref = np.where(learned, self._ref, np.float32(0.0))
-        grown = ref.copy()  # becomes the farthest learned reference around each cell
-        for dy in (-1, 0, 1):
-            for dx in (-1, 0, 1):
-                if dy == 0 and dx == 0:
-                    continue
-                src = ref[max(dy, 0): ref.shape[0] + min(dy, 0), max(dx, 0): ref.shape[1] + min(dx, 0)]
-                dst = grown[max(-dy, 0): ref.shape[0] + min(-dy, 0), max(-dx, 0): ref.shape[1] + min(-dx, 0)]
-                np.maximum(dst, src, out=dst)
+        grown = cv2.dilate(ref, np.ones((3, 3), np.uint8))  # the farthest learned reference around each cell
         grown = np.where(learned, ref, grown)  # a learned cell keeps its own reference
         h, w = mask.shape
         full = np.repeat(np.repeat(grown, s, axis=0), s, axis=1)[:h, :w]
