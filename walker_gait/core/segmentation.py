@@ -969,11 +969,6 @@ class StaticStructureMask:
         self.moving_frames = 0
         """Moving frames seen so far."""
 
-    def reset(self) -> None:
-        """Forget everything learned."""
-        self._shape = (0, 0)
-        self.moving_frames = 0
-
     @property
     def learned(self) -> BoolArray:
         """``(h, w)`` cells currently counted as static structure (sub-sampled grid)."""
