@@ -45,6 +45,21 @@ def test_session_list() -> None:
         sweep.session_list(("normal",), 11, 100)
 
 
+def test_spec_overrides_parse_check_and_tag_the_cache(capsys: pytest.CaptureFixture[str]) -> None:
+    ov = sweep.spec_overrides('{"body_scale": [1.12, 1.2], "camera": ["kinect_v2_512x424"], "fps": 15}')
+    assert ov == {"body_scale": (1.12, 1.2), "camera": ("kinect_v2_512x424",), "fps": 15}
+    assert sweep._spec_tag({}) == "" and sweep._spec_tag(None) == ""
+    tag = sweep._spec_tag(ov)
+    assert tag.startswith("_") and tag == sweep._spec_tag(dict(reversed(ov.items())))  # order-free
+    assert tag != sweep._spec_tag({**ov, "fps": 30})
+    for bad in ('{"no_such_field": 1}', '{"body_scale": [1.2, 1.1]}', '{"camera": ["nope"]}', '[1]', '{"duration": 3}',
+                "{"):
+        with pytest.raises(ValueError):
+            sweep.spec_overrides(bad)
+    assert sweep.main(["--out", "unused", "--spec-override", '{"cam_height": [0.7, 0.6]}']) == 2
+    assert "cam_height" in capsys.readouterr().err
+
+
 def test_summarise_hand_built_errors() -> None:
     s = sweep.summarise([_run()])
     assert s["joint_err_cm"]["heel"] == pytest.approx(2.0)

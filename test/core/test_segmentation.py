@@ -311,6 +311,25 @@ def test_roi_follows_legs_of_an_off_centre_camera() -> None:
     assert centred.roi_shift == 0.0
 
 
+def test_roi_stays_centred_on_a_wide_stance() -> None:
+    """Legs 26 cm apart (a wide base of support, as in many patients), equal in area, the walker's posts in
+    the band the box can reach: the box stays put and keeps both legs.  (A median of the legs' pixels falls
+    on the inner edge of one leg, 7 cm off the centre; the box then chased that leg and cut the other one
+    off entirely, the cut pulling it further each frame.)"""
+    rng = np.random.default_rng(12)
+    seg = Segmenter(rng=rng, intrinsics=QVGA)
+    proj = DepthProjector(QVGA)
+    scene = scene_cached(((0.85, 0.13), (0.85, -0.13)), QVGA)
+    leg = (scene.labels == LABEL_LEG) & (scene.height > 0.1)
+    for _ in range(90):
+        depth = noisy_depth(scene, rng)
+        res = seg.process(depth, proj.points(depth))
+    assert abs(seg.roi_shift) < 0.02
+    for side in (scene.walker[..., 1] > 0, scene.walker[..., 1] < 0):
+        part = leg & side & np.isfinite(depth) & (np.abs(scene.walker[..., 1]) < 0.17)
+        assert (res.mask & part).sum() >= 0.95 * part.sum()
+
+
 # --------------------------------------------------------------------------- background model (seed)
 
 

@@ -29,6 +29,7 @@ heels or ankles substituted: what the step metrics would be if that point were t
 from __future__ import annotations
 
 import argparse
+import hashlib
 import json
 import math
 import os
@@ -84,11 +85,42 @@ def session_list(scenarios: tuple[str, ...], per_scenario: int, base_seed: int) 
     return [(sc, base_seed + 10 * k + j) for k, sc in enumerate(scenarios) for j in range(per_scenario)]
 
 
-def _session(scenario: str, seed: int, duration: float) -> Any:
+def spec_overrides(text: str) -> dict[str, Any]:
+    """``SessionSpec`` field overrides from JSON (lists become the spec's tuples: ranges, camera names),
+    checked against every scenario's preset; raises ``ValueError`` on bad JSON, fields or values."""
+    from walker_gait.synth import SessionSpec
+
+    try:
+        raw = json.loads(text)
+    except json.JSONDecodeError as exc:
+        raise ValueError(str(exc)) from exc
+    if not isinstance(raw, dict):
+        raise ValueError("expected a JSON object of SessionSpec fields")
+    ov = {k: tuple(v) if isinstance(v, list) else v for k, v in raw.items()}
+    for key in ("scenario", "duration"):
+        if key in ov:
+            raise ValueError(f"{key!r} is set by the sweep (--scenarios, --duration), not by --spec-override")
+    for sc in SCENARIOS:
+        try:
+            SessionSpec.preset(sc, **ov)
+        except TypeError as exc:
+            raise ValueError(str(exc)) from exc
+    return ov
+
+
+def _spec_tag(spec: dict[str, Any] | None) -> str:
+    """Cache-name suffix of a set of spec overrides ('' for none)."""
+    if not spec:
+        return ""
+    text = json.dumps(spec, sort_keys=True, default=list)
+    return "_" + hashlib.sha1(text.encode()).hexdigest()[:10]
+
+
+def _session(scenario: str, seed: int, duration: float, spec: dict[str, Any] | None = None) -> Any:
     from walker_gait.synth import SessionSpec, generate_session
 
     dur = max(duration, 14.0) if scenario == "absent_start" else duration  # as make bench: time to walk in
-    return generate_session(SessionSpec.preset(scenario, duration=dur), rng=np.random.default_rng(seed))
+    return generate_session(SessionSpec.preset(scenario, duration=dur, **(spec or {})), rng=np.random.default_rng(seed))
 
 
 def _rendered(session: Any, cache: Path | None, name: str) -> Any:
@@ -108,13 +140,15 @@ def _rendered(session: Any, cache: Path | None, name: str) -> Any:
 
 
 def run_session(scenario: str, seed: int, *, duration: float, tracker_seeds: tuple[int, ...],
-                overrides: dict[str, Any] | None = None, cache: Path | None = None) -> list[SessionRun]:
-    """Generate (or load the cached render of) one session and track it once per tracker seed."""
+                overrides: dict[str, Any] | None = None, cache: Path | None = None,
+                spec: dict[str, Any] | None = None) -> list[SessionRun]:
+    """Generate (or load the cached render of) one session and track it once per tracker seed; ``spec``:
+    ``SessionSpec`` overrides of the scenario's preset (other subjects, cameras, mounts)."""
     from walker_gait.bench.endtoend import _gt_as_steps, present_frames, run_pipeline, trackable_frames
     from walker_gait.bench.gait import match_steps
 
-    session = _session(scenario, seed, duration)
-    rendered = _rendered(session, cache, f"{scenario}_{seed}_{duration:g}s")
+    session = _session(scenario, seed, duration, spec)
+    rendered = _rendered(session, cache, f"{scenario}_{seed}_{duration:g}s{_spec_tag(spec)}")
     trackable = trackable_frames(session, rendered)
     present = present_frames(session, rendered)
     n = len(rendered.frames)
@@ -332,9 +366,10 @@ def format_oracle(rep: dict[str, Any]) -> str:
     return "\n".join(lines)
 
 
-def _work(args: tuple[str, int, float, tuple[int, ...], dict[str, Any], Path | None]) -> list[SessionRun]:
-    scenario, seed, duration, seeds, overrides, cache = args
-    return run_session(scenario, seed, duration=duration, tracker_seeds=seeds, overrides=overrides, cache=cache)
+def _work(args: tuple[str, int, float, tuple[int, ...], dict[str, Any], Path | None, dict[str, Any]]) -> list[SessionRun]:
+    scenario, seed, duration, seeds, overrides, cache, spec = args
+    return run_session(scenario, seed, duration=duration, tracker_seeds=seeds, overrides=overrides, cache=cache,
+                       spec=spec)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -342,6 +377,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--out", type=Path, help="output directory (summary.json, table.md)")
     ap.add_argument("--compare", type=Path, nargs="+", metavar="DIR", help="print the summaries of earlier sweeps side by side")
     ap.add_argument("--override", default="{}", help="TrackerConfig field overrides of the default preset, JSON")
+    ap.add_argument("--spec-override", default="{}",
+                    help="SessionSpec field overrides for every session, JSON (e.g. other subjects, mounts, cameras: "
+                         "'{\"body_scale\": [1.12, 1.2], \"cam_height\": [0.65, 0.75]}'); rendered separately in the cache")
     ap.add_argument("--scenarios", nargs="+", default=list(SCENARIOS), choices=SCENARIOS)
     ap.add_argument("--per-scenario", type=int, default=4, help="sessions per scenario (default 4)")
     ap.add_argument("--base-seed", type=int, default=100, help="session seeds: base + 10 k + j (default 100; 500 = a second set)")
@@ -377,8 +415,13 @@ def main(argv: list[str] | None = None) -> int:
     except (json.JSONDecodeError, TypeError, ValueError) as exc:
         print(f"sweep: bad --override {a.override!r}: {exc}", file=sys.stderr)
         return 2
+    try:
+        spec = spec_overrides(a.spec_override)
+    except ValueError as exc:
+        print(f"sweep: bad --spec-override {a.spec_override!r}: {exc}", file=sys.stderr)
+        return 2
     sessions = session_list(tuple(a.scenarios), a.per_scenario, a.base_seed)
-    jobs = [(sc, sd, a.duration, tuple(a.tracker_seeds), overrides, a.cache) for sc, sd in sessions]
+    jobs = [(sc, sd, a.duration, tuple(a.tracker_seeds), overrides, a.cache, spec) for sc, sd in sessions]
     t0 = time.perf_counter()
     runs: list[SessionRun] = []
     from tqdm import tqdm
@@ -386,7 +429,7 @@ def main(argv: list[str] | None = None) -> int:
     with ProcessPoolExecutor(max_workers=max(1, a.jobs)) as pool:
         for res in tqdm(pool.map(_work, jobs), total=len(jobs), desc="sessions", unit="session", file=sys.stderr):
             runs.extend(res)
-    config = {"override": overrides, "scenarios": a.scenarios, "per_scenario": a.per_scenario,
+    config = {"override": overrides, "spec_override": spec, "scenarios": a.scenarios, "per_scenario": a.per_scenario,
               "base_seed": a.base_seed, "tracker_seeds": a.tracker_seeds, "duration": a.duration,
               "seconds": round(time.perf_counter() - t0, 1)}
     _write(a.out, runs, config, with_oracle=a.oracle)

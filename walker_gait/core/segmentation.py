@@ -530,7 +530,8 @@ class RoiConfig:
     center_max_shift: float = 0.15
     """Auto-centring: the box follows the user's legs sideways by up to this (m), so that a camera
     mounted off the walker's centre line does not cut a leg (the box is kept where the legs' lateral
-    centre would be for a centred camera).  0 = a fixed box (seed)."""
+    centre would be for a centred camera; that centre is measured over the whole band the box can reach,
+    so a leg the box cuts does not pull it further off).  0 = a fixed box (seed)."""
     center_deadband: float = 0.05
     """Auto-centring: the box only moves once the legs' lateral centre is more than this (m) off the
     walker's centre line (a user walking a little to one side of a centred camera keeps the fixed box)."""
@@ -1289,7 +1290,7 @@ class Segmenter:
             in_roi &= xw >= roi.near
             if roi.max_height is not None:
                 in_roi &= h <= roi.max_height
-            if self.static is not None:
+            if self.static is not None or roi.center_max_shift > 0:
                 in_reach = in_roi & (yw <= roi.left + roi.center_max_shift)
                 in_reach &= yw >= -roi.right - roi.center_max_shift
             in_roi &= yw <= roi.left + self.roi_shift
@@ -1322,18 +1323,26 @@ class Segmenter:
         cand_nf &= valid_f
         n_not_floor = int(np.count_nonzero(cand_nf))
         mask = cand_nf & in_roi
+        # the wider band the auto-centred box can reach gets the same structure filters as the box; the
+        # centring measures the legs there, so a leg the box cuts does not pull the box further off it
+        reach = None if in_reach is None else cand_nf & in_reach
         n_static = 0
-        if self.static is not None and in_reach is not None:
-            self.static.update(z, (cand_nf & in_reach).reshape(shape))
-            static_px = self.static.static_pixels(z, mask.reshape(shape)).reshape(-1)
-            n_static = int(np.count_nonzero(static_px))
+        if self.static is not None and reach is not None:
+            self.static.update(z, reach.reshape(shape))
+            static_px = self.static.static_pixels(z, reach.reshape(shape)).reshape(-1)
+            n_static = int(np.count_nonzero(static_px & mask))  # the box's share (the counters add up)
             mask &= ~static_px
+            reach &= ~static_px
         n_thin = 0
         if cfg.min_part_width > 0 and self.intrinsics is not None:
-            thin = thin_parts(mask.reshape(shape), z, fx=self.intrinsics.fx, fy=self.intrinsics.fy,
-                              min_width=cfg.min_part_width).reshape(-1)
+            fx, fy = self.intrinsics.fx, self.intrinsics.fy
+            thin = thin_parts(mask.reshape(shape), z, fx=fx, fy=fy, min_width=cfg.min_part_width).reshape(-1)
             n_thin = int(np.count_nonzero(thin))
             mask &= ~thin
+            if reach is not None and roi.center_max_shift > 0:
+                # coarser (a quarter of the work): this band only feeds the centring's percentiles
+                reach &= ~thin_parts(reach.reshape(shape), z, fx=fx, fy=fy, min_width=cfg.min_part_width,
+                                     stride=4).reshape(-1)
         if self.hmm is not None and floor.valid and xw is not None and yw is not None and h is not None:
             idx = np.flatnonzero(mask)
             cells = self.hmm.cell_index_xyz(xw[idx], yw[idx], h[idx])
@@ -1341,8 +1350,8 @@ class Segmenter:
             static = self.hmm.static_cells(cells)
             n_static += int(np.count_nonzero(static))
             mask[idx[static]] = False
-        if roi.center_max_shift > 0 and yw is not None and h is not None:
-            self._follow_legs(mask, yw, h, zf)
+        if roi.center_max_shift > 0 and yw is not None and h is not None and reach is not None:
+            self._follow_legs(reach, yw, h, zf)
         fg = _select_rows(pts, mask)
         n_fg = int(fg.shape[0])
         return Segmentation(
@@ -1362,22 +1371,28 @@ class Segmenter:
         )
 
     def _follow_legs(self, mask: BoolArray, yw: F32, h: F32, z: F32) -> None:
-        """Auto-centring: move the box sideways towards the lateral centre of the legs: the area-weighted
-        median walker y of the foreground 0.05-0.6 m up (shins and knees; a pixel covers z² of surface,
-        so the leg nearer the camera does not outvote the other; a median, not the pixels' span, so a
-        walker part or clutter at the box edge is not chased).  Needs >= 300 such pixels."""
+        """Auto-centring: move the box sideways towards the lateral centre of the legs, measured on ``mask``
+        (the foreground of the whole band the box can reach, so a leg the box cuts does not pull it further
+        off): the midpoint of the 15th and 85th area-weighted percentiles of walker y over the foreground
+        0.2-0.6 m up (shins and knees, above a walker's wheels; 0.05-0.6 m when that holds < 300 pixels).
+        A pixel covers z² of surface, so the leg nearer the camera does not outvote the other; percentiles,
+        not the pixels' span, so a walker part or clutter at the edge is not chased; not the median, which
+        falls on the inner edge of one leg when two legs of about equal area stand apart.  Needs >= 300 pixels."""
         roi = self.config.roi
         idx = np.flatnonzero(mask)
         hh = h[idx]
-        sel = idx[(hh > 0.05) & (hh < 0.6)]
+        sel = idx[(hh > 0.2) & (hh < 0.6)]
+        if sel.size < 300:
+            sel = idx[(hh > 0.05) & (hh < 0.6)]
         if sel.size < 300:
             return
-        sel = sel[:: sel.size // 5000 + 1]  # a few thousand pixels give the median to a millimetre
+        sel = sel[:: sel.size // 5000 + 1]  # a few thousand pixels give the percentiles to a millimetre
         ys = yw[sel]
         order = np.argsort(ys)
         y = ys[order]
         cw = np.cumsum(np.square(z[sel][order], dtype=np.float64))
-        centre = float(y[min(int(np.searchsorted(cw, 0.5 * cw[-1])), y.size - 1)])
+        lo, hi = np.searchsorted(cw, np.array([0.15, 0.85]) * cw[-1])
+        centre = 0.5 * float(y[min(int(lo), y.size - 1)] + y[min(int(hi), y.size - 1)])
         target = 0.0 if abs(centre) <= roi.center_deadband else centre
         target = float(np.clip(target, -roi.center_max_shift, roi.center_max_shift))
         self.roi_shift += roi.center_gain * (target - self.roi_shift)
