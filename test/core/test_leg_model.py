@@ -105,6 +105,24 @@ def test_collision_detected() -> None:
     assert lm.constraint_violations(lm.apply_floor_contact(x))[0]
 
 
+def test_loose_fabric_hangs_straight_and_gives_way() -> None:
+    """A calf radius wider than any calf (baggy trousers) makes a straight tube down to the ankle, and the
+    collision test sees the leg inside: two such legs may pass each other as closely as bare legs."""
+    lo, hi = lm.LOOSE_CALF_RADIUS
+    r = np.array([0.04, lo, 0.5 * (lo + hi), hi, 0.13])
+    np.testing.assert_allclose(lm.calf_taper(r), [lm.CALF_TAPER, lm.CALF_TAPER, 0.5 * (1 + lm.CALF_TAPER), 1.0, 1.0])
+    x = np.tile(lm.neutral_state(hip_dist=0.16), (3, 1))
+    x[:, L.RAD_CALF] = [0.05, 0.10, 0.13]
+    kin = lm.forward_kinematics(x)
+    taper = kin.radii[:, :, 1, 1] / x[:, L.RAD_CALF, None]
+    np.testing.assert_allclose(taper, np.repeat(lm.calf_taper(x[:, L.RAD_CALF])[:, None], 2, axis=1))
+    # calves 16 cm apart: 13 cm fabric tubes overlap, the legs inside them do not
+    assert not lm.collisions(kin).any()
+    x[:, L.HIP_DIST] = 0.12
+    x[:, [L.LEFT.start + L.HIP_ABD, L.RIGHT.start + L.HIP_ABD]] = -0.08  # ankles 2 cm apart: legs overlap in any trousers
+    assert lm.collisions(lm.forward_kinematics(x)).all()
+
+
 def test_segment_distance_known_cases() -> None:
     p1, q1 = np.array([0.0, 0, 0]), np.array([1.0, 0, 0])
     p2, q2 = np.array([0.5, 1, -1]), np.array([0.5, 1, 1])
@@ -170,7 +188,9 @@ def _reference_kinematics(x: np.ndarray) -> lm.Kinematics:
             inset = lm.FOOT_CAP_INSET * np.array([r_heel, -r_toe])
             pts[k, side] = hip, knee, ankle, heel, toe
             seg[k, side] = [hip, knee], [knee, ankle], [heel, toe] + inset[:, None] * r_foot[:, 0]
-            rad[k, side] = [r_th, lm.THIGH_TAPER * r_th], [r_ca, lm.CALF_TAPER * r_ca], [r_heel, r_toe]
+            lo, hi = lm.LOOSE_CALF_RADIUS  # loose fabric: the taper relaxes linearly to a straight tube
+            taper = lm.CALF_TAPER + (1.0 - lm.CALF_TAPER) * min(max((r_ca - lo) / (hi - lo), 0.0), 1.0)
+            rad[k, side] = [r_th, lm.THIGH_TAPER * r_th], [r_ca, taper * r_ca], [r_heel, r_toe]
             lat[k, side] = r_foot[:, 1]
     return lm.Kinematics(segments=seg, radii=rad, points=pts, foot_lateral=lat)
 
@@ -219,7 +239,9 @@ def test_sole_heights_and_collisions_match_per_pair_reference() -> None:
     half = (x[:, L.LEN_FOOT] * lm.FOOT_HALF_WIDTH)[:, None, None, None]
     z = kin.segments[:, :, 2, :, 2, None] + half * kin.foot_lateral[:, :, None, None, 2] * [-1, 1]
     np.testing.assert_allclose(lm.sole_heights(kin), z.min(axis=(2, 3)), rtol=0, atol=1e-12)
-    mean_r = kin.radii.mean(axis=-1)
+    radii = kin.radii.copy()
+    radii[:, :, 1] = np.minimum(radii[:, :, 1], lm.COLLISION_CALF_RADIUS)  # fabric gives way
+    mean_r = radii.mean(axis=-1)
     expected = np.zeros(len(x), dtype=bool)
     for k in range(len(x)):
         for i in range(3):

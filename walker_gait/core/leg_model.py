@@ -35,7 +35,8 @@ Geometry
 --------
 * thigh: tapered cylinder from the hip joint centre to the knee joint centre,
   radii ``rad_thigh`` → ``THIGH_TAPER * rad_thigh``;
-* calf: knee → ankle joint centre, radii ``rad_calf`` → ``CALF_TAPER * rad_calf``;
+* calf: knee → ankle joint centre, radii ``rad_calf`` → ``calf_taper(rad_calf) * rad_calf`` (``CALF_TAPER``
+  for a calf; loose fabric wider than ``LOOSE_CALF_RADIUS[0]`` hangs straighter, a tube at ``LOOSE_CALF_RADIUS[1]``);
 * foot: half-cylinder with a flat base (the sole); its axis lies *in the sole*
   on the heel-toe line, radii ``FOOT_HEEL_RADIUS * len_foot`` →
   ``FOOT_TOE_RADIUS * len_foot``, its ends inset by those radii (``FOOT_CAP_INSET``) so
@@ -73,7 +74,11 @@ STATE_DIM = 23
 THIGH_TAPER = 0.72
 """Distal/proximal radius ratio of the thigh."""
 CALF_TAPER = 0.62
-"""Distal/proximal radius ratio of the calf."""
+"""Distal/proximal radius ratio of the calf (a leg, bare or in fitted trousers)."""
+LOOSE_CALF_RADIUS = (0.09, 0.12)
+"""Calf radii (m) over which the calf's taper relaxes from ``CALF_TAPER`` to 1: a lower leg wider than
+any calf in fitted trousers is loose fabric, which hangs straight from the knee (baggy trousers: a
+10-13 cm tube down to the hem), not a calf narrowing to the ankle (see :func:`calf_taper`)."""
 FOOT_HEEL_RADIUS = 0.28
 """Foot half-cylinder radius at the heel, as a fraction of foot length (~7.5 cm for a 27 cm
 shoe: an effective radius of the ~10 cm tall, ~7 cm wide heel counter, so that the model's
@@ -98,6 +103,10 @@ exactly the heel and toe points instead of overshooting them by a radius)."""
 HEEL_BACK = 0.24
 """Horizontal heel-to-ankle distance, fraction of foot length (ankle centre ~6.5 cm in front of
 the posterior-most sole point of a 27 cm shoe; heel-to-ankle distance ~11.5 cm)."""
+
+COLLISION_CALF_RADIUS = LOOSE_CALF_RADIUS[0]
+"""Largest calf radius (m) the collision test uses (``LOOSE_CALF_RADIUS[0]``): a wider lower leg is fabric
+(baggy trousers), which gives way when the legs pass each other; the legs inside it are no wider."""
 
 COLLISION_SLACK = 0.75
 """Two capsules collide when their axes are closer than this times the sum of their mean radii
@@ -403,7 +412,16 @@ def _chain(x: FloatArray) -> _Chain:
     np.multiply(fwd, FOOT_CAP_INSET * (FOOT_TOE_RADIUS * l_foot), out=foot_end)
     np.subtract(toe, foot_end, out=foot_end)
     radii = (x[:, _RADIUS_INDEX] * _RADIUS_SCALE).reshape(p, 2, 3, 2)
+    radii[:, :, 1, 1] = x[:, L.RAD_CALF, None] * calf_taper(x[:, L.RAD_CALF])[:, None]
     return _Chain(ends=ends, lateral=lateral, radii=radii)
+
+
+def calf_taper(rad_calf: FloatArray) -> FloatArray:
+    """Distal/proximal radius ratio of the calf for proximal radii ``rad_calf``: ``CALF_TAPER`` up to
+    ``LOOSE_CALF_RADIUS[0]``, rising linearly to 1 (a straight tube of loose fabric) at ``LOOSE_CALF_RADIUS[1]``."""
+    lo, hi = LOOSE_CALF_RADIUS
+    t = np.clip((np.asarray(rad_calf, dtype=np.float64) - lo) / (hi - lo), 0.0, 1.0)
+    return CALF_TAPER + (1.0 - CALF_TAPER) * t
 
 
 def hip_positions(states: FloatArray) -> FloatArray:
@@ -525,6 +543,8 @@ def _collisions(pairs: FloatArray, radii: FloatArray, slack: float) -> BoolArray
     r = p1 - p2
     s, t = _closest_params(_dot3(d1, d1), _dot3(d1, d2), _dot3(d1, r), _dot3(d2, d2), _dot3(d2, r))
     dist = _closest_distances(p1, d1, s, p2, d2, t)  # (9, P)
+    radii = radii.copy()
+    np.minimum(radii[:, :, 1], COLLISION_CALF_RADIUS, out=radii[:, :, 1])  # bodies collide, not fabric
     r1, r1_end, r2, r2_end = radii.T[_PAIR_RADIUS]  # (9, P) radii at p1, q1, p2, q2
     thresh = r1 + r1_end
     thresh /= 2.0
@@ -536,7 +556,8 @@ def _collisions(pairs: FloatArray, radii: FloatArray, slack: float) -> BoolArray
 
 
 def collisions(kin: Kinematics, *, slack: float = COLLISION_SLACK) -> BoolArray:
-    """``(P,)`` True where any left segment intersects any right segment (capsule test)."""
+    """``(P,)`` True where any left segment intersects any right segment (capsule test; calf radii capped at
+    ``COLLISION_CALF_RADIUS``: loose fabric gives way)."""
     pairs = kin.segments.transpose(1, 2, 3, 4, 0)[_PAIR_SIDE, _PAIR_SEG, _PAIR_END, _PAIR_XYZ]
     return _collisions(pairs, kin.radii, slack)
 
