@@ -244,7 +244,8 @@ _LEG_ANGLE_SIGNS: FloatArray = np.array(
 ``Ry(-flex) Rx(s*abd) Rz(-s*rot) Ry(knee) Ry(-dorsi) Rx(-s*inv)``, ``s = +1`` left, ``-1`` right."""
 _RADIUS_INDEX = np.tile([L.RAD_THIGH, L.RAD_THIGH, L.RAD_CALF, L.RAD_CALF, L.LEN_FOOT, L.LEN_FOOT], 2)
 _RADIUS_SCALE: FloatArray = np.tile([1.0, THIGH_TAPER, 1.0, CALF_TAPER, FOOT_HEEL_RADIUS, FOOT_TOE_RADIUS], 2)
-"""``Kinematics.radii`` of a state ``x`` is ``(x[_RADIUS_INDEX] * _RADIUS_SCALE).reshape(2, 3, 2)``."""
+"""``Kinematics.radii`` of a state ``x`` is ``(x[_RADIUS_INDEX] * _RADIUS_SCALE).reshape(2, 3, 2)``, the
+distal calf radius then taken from :func:`calf_taper` (``CALF_TAPER`` here is its value for a calf)."""
 _FOOT_START, _FOOT_END = 5, 6
 """Rows of the foot axis ends in :attr:`_Chain.ends` (after the 5 ``LEG_POINTS``)."""
 _SEGMENT_ENDS = np.array([[HIP, KNEE, _FOOT_START], [KNEE, ANKLE, _FOOT_END]])
