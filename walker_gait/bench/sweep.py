@@ -112,7 +112,7 @@ def _spec_tag(spec: dict[str, Any] | None) -> str:
     """Cache-name suffix of a set of spec overrides ('' for none)."""
     if not spec:
         return ""
-    text = json.dumps(spec, sort_keys=True, default=list)
+    text = json.dumps(spec, sort_keys=True)  # tuples dump as lists
     return "_" + hashlib.sha1(text.encode()).hexdigest()[:10]
 
 

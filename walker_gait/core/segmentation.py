@@ -1283,7 +1283,8 @@ class Segmenter:
         xw: NDArray[np.float32] | None = None
         yw: NDArray[np.float32] | None = None
         h: NDArray[np.float32] | None = None
-        in_reach: BoolArray | None = None  # where the auto-centred box can reach (the static mask learns there)
+        # where the auto-centred box can reach: the static mask learns there and the centring measures there
+        in_reach: BoolArray | None = None
         if floor.valid:
             xw, yw, h = self._walker_coords(pts, z, floor)
             in_roi = xw <= roi.forward  # in-place &= avoids temporaries (speed)
