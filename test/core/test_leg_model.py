@@ -123,6 +123,40 @@ def test_loose_fabric_hangs_straight_and_gives_way() -> None:
     assert lm.collisions(lm.forward_kinematics(x)).all()
 
 
+def _foot_top_heights(kin: lm.Kinematics, along: np.ndarray) -> np.ndarray:
+    """Height of the model foot's surface (half-cylinder on its sole axis, rounded ends) over the sole points
+    ``along`` (m from the heel towards the toe) of each foot of a flat-footed pose, ``(P, 2, K)``."""
+    start, end = kin.segments[:, :, 2, 0], kin.segments[:, :, 2, 1]  # (P, 2, 3) sole axis ends
+    r0, r1 = kin.radii[:, :, 2, 0, None], kin.radii[:, :, 2, 1, None]
+    heel = kin.points[:, :, HEEL]
+    a = np.linalg.norm(start - heel, axis=-1)[..., None]  # axis start, m from the heel
+    b = np.linalg.norm(end - heel, axis=-1)[..., None]
+    t = np.clip((along - a) / (b - a), 0.0, 1.0)
+    on_axis = r0 + (r1 - r0) * t
+    behind = np.sqrt(np.maximum(r0**2 - (a - along) ** 2, 0.0))
+    ahead = np.sqrt(np.maximum(r1**2 - (along - b) ** 2, 0.0))
+    return np.where(along < a, behind, np.where(along > b, ahead, on_axis))
+
+
+def test_foot_top_follows_a_shoe_from_the_instep_to_the_toe() -> None:
+    """Where the camera sees a shoe from the front (its top from the instep to the toe box), the model foot's
+    surface stands within 1.5 cm of a shoe's height profile (the synthetic generator's shoe: heel counter
+    8.5 cm, 10-10.5 cm over the heel and instep, 4 cm toe box), so the filter need not pitch a flat foot
+    heel-up onto its toes to reach the instep (it did with a 7.5 cm heel radius: 2.4 cm short there)."""
+    from walker_gait.synth.body import _SHOE_H, _SHOE_HS
+
+    x = np.tile(lm.neutral_state(), (2, 1))
+    x[:, L.LEN_FOOT] = [0.24, 0.29]
+    kin = lm.forward_kinematics(lm.apply_floor_contact(x))
+    np.testing.assert_allclose(kin.points[:, :, HEEL, 2], 0.0, atol=1e-12)  # flat on the floor
+    np.testing.assert_allclose(kin.points[:, :, TOE, 2], 0.0, atol=1e-12)
+    s = np.linspace(0.3, 0.95, 14)  # fraction of the foot length from the heel
+    for p, length in enumerate(x[:, L.LEN_FOOT]):
+        model = _foot_top_heights(kin, s * length)[p]
+        shoe = length / 0.27 * np.interp(s, _SHOE_HS, _SHOE_H)  # the generator's 27 cm shoe, scaled
+        assert np.abs(model - shoe[None]).max() < 0.015, (length, np.round(100 * (model - shoe), 1))
+
+
 def test_segment_distance_known_cases() -> None:
     p1, q1 = np.array([0.0, 0, 0]), np.array([1.0, 0, 0])
     p2, q2 = np.array([0.5, 1, -1]), np.array([0.5, 1, 1])
@@ -241,6 +275,7 @@ def test_sole_heights_and_collisions_match_per_pair_reference() -> None:
     np.testing.assert_allclose(lm.sole_heights(kin), z.min(axis=(2, 3)), rtol=0, atol=1e-12)
     radii = kin.radii.copy()
     radii[:, :, 1] = np.minimum(radii[:, :, 1], lm.COLLISION_CALF_RADIUS)  # fabric gives way
+    radii[:, :, 2, 0] = lm.COLLISION_FOOT_RADIUS * x[:, None, L.LEN_FOOT]  # feet meet by their width
     mean_r = radii.mean(axis=-1)
     expected = np.zeros(len(x), dtype=bool)
     for k in range(len(x)):

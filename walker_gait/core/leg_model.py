@@ -79,10 +79,14 @@ LOOSE_CALF_RADIUS = (0.09, 0.12)
 """Calf radii (m) over which the calf's taper relaxes from ``CALF_TAPER`` to 1: a lower leg wider than
 any calf in fitted trousers is loose fabric, which hangs straight from the knee (baggy trousers: a
 10-13 cm tube down to the hem), not a calf narrowing to the ankle (see :func:`calf_taper`)."""
-FOOT_HEEL_RADIUS = 0.28
-"""Foot half-cylinder radius at the heel, as a fraction of foot length (~7.5 cm for a 27 cm
-shoe: an effective radius of the ~10 cm tall, ~7 cm wide heel counter, so that the model's
-surface reaches the observed top of the shoe and the ankle without pitching the foot)."""
+FOOT_HEEL_RADIUS = 0.32
+"""Foot half-cylinder radius at the heel end, as a fraction of foot length (~8.6 cm for a 27 cm
+shoe).  It is the height of a shoe's top where the camera sees it, over the instep (~8.5-10 cm
+from the heel counter to the laces), not the shoe's width: the radius tapers linearly to the toe,
+and a thinner heel end (0.28, ~7.5 cm) left the model's top 2-2.5 cm under the instep, so the
+filter pitched flat feet heel-up onto their toes to reach it (synthetic sweeps, flat-foot frames:
+heel 3.3 cm above the floor, pitch -4.5 deg).  The collision test keeps the narrower
+``COLLISION_FOOT_RADIUS`` (feet meet side by side, by their width)."""
 FOOT_TOE_RADIUS = 0.15
 """Foot half-cylinder radius at the toe end, as a fraction of foot length (~4 cm for a 27 cm shoe:
 half the forefoot width of a shoe, ~9-10 cm, and about the height of its toe box; a thinner toe
@@ -107,6 +111,10 @@ the posterior-most sole point of a 27 cm shoe; heel-to-ankle distance ~11.5 cm).
 COLLISION_CALF_RADIUS = LOOSE_CALF_RADIUS[0]
 """Largest calf radius (m) the collision test uses (``LOOSE_CALF_RADIUS[0]``): a wider lower leg is fabric
 (baggy trousers), which gives way when the legs pass each other; the legs inside it are no wider."""
+
+COLLISION_FOOT_RADIUS = 0.28
+"""Foot radius at the heel end that the collision test uses, fraction of foot length (less than
+``FOOT_HEEL_RADIUS``, which is the shoe's height: two feet passing each other meet by their sides)."""
 
 COLLISION_SLACK = 0.75
 """Two capsules collide when their axes are closer than this times the sum of their mean radii
@@ -546,6 +554,7 @@ def _collisions(pairs: FloatArray, radii: FloatArray, slack: float) -> BoolArray
     dist = _closest_distances(p1, d1, s, p2, d2, t)  # (9, P)
     radii = radii.copy()
     np.minimum(radii[:, :, 1], COLLISION_CALF_RADIUS, out=radii[:, :, 1])  # bodies collide, not fabric
+    radii[:, :, 2, 0] *= COLLISION_FOOT_RADIUS / FOOT_HEEL_RADIUS  # feet meet by their width, not their height
     r1, r1_end, r2, r2_end = radii.T[_PAIR_RADIUS]  # (9, P) radii at p1, q1, p2, q2
     thresh = r1 + r1_end
     thresh /= 2.0
@@ -558,7 +567,7 @@ def _collisions(pairs: FloatArray, radii: FloatArray, slack: float) -> BoolArray
 
 def collisions(kin: Kinematics, *, slack: float = COLLISION_SLACK) -> BoolArray:
     """``(P,)`` True where any left segment intersects any right segment (capsule test; calf radii capped at
-    ``COLLISION_CALF_RADIUS``: loose fabric gives way)."""
+    ``COLLISION_CALF_RADIUS``: loose fabric gives way; foot heel ends at ``COLLISION_FOOT_RADIUS``)."""
     pairs = kin.segments.transpose(1, 2, 3, 4, 0)[_PAIR_SIDE, _PAIR_SEG, _PAIR_END, _PAIR_XYZ]
     return _collisions(pairs, kin.radii, slack)
 
