@@ -20,7 +20,7 @@ from walker_gait.core.tracker import (
     camera_segments,
     preset,
 )
-from walker_gait.core.types import JOINT_NAMES, FloorPlane, TrackStatus
+from walker_gait.core.types import HEEL, JOINT_NAMES, FloorPlane, TrackStatus
 
 FAST = preset("default", n_particles=64, init_rounds=4)
 
@@ -43,6 +43,9 @@ def test_presets() -> None:
         TrackerConfig(cue="rgb")  # type: ignore[arg-type]
     with pytest.raises(ValueError):
         preset("nope")
+    for bad in ({"pelvis_prior_sigma": (0.1,)}, {"pelvis_prior_sigma": (0.1, 0.0)}, {"foot_roll_prior_sigma": -0.1}):
+        with pytest.raises(ValueError):
+            preset("default", **bad)
 
 
 def test_camera_segments_give_the_foot_an_elliptical_section() -> None:
@@ -363,7 +366,9 @@ def _prior_term(seq, x: np.ndarray, legs: tuple[int, ...], **sigmas: float) -> n
     f = seq.frames[0]
 
     def loglik(**priors: float) -> np.ndarray:
-        cfg = preset("default", **{"ankle_prior_sigma": np.inf, "foot_pitch_prior_sigma": np.inf, **priors})
+        off = {"ankle_prior_sigma": np.inf, "foot_pitch_prior_sigma": np.inf, "foot_roll_prior_sigma": np.inf,
+               "pelvis_prior_sigma": (np.inf, np.inf)}
+        cfg = preset("default", **{**off, **priors})
         tr = LegTracker(cfg, KINECT, rng=np.random.default_rng(0))
         return tr._evaluate(tr._prepare(f.points, f.depth, f.floor), x, legs=legs, ref=None)
 
@@ -403,3 +408,43 @@ def test_foot_pitch_prior_adds_a_gaussian_on_the_pitch_of_each_foot(seq) -> None
     np.testing.assert_allclose(prior, [0.0, -0.5 * (0.4 / 0.25) ** 2, -0.5 * (0.2 / 0.25) ** 2], atol=1e-9)
     right_only = _prior_term(seq, x, (1,), foot_pitch_prior_sigma=0.25)
     np.testing.assert_allclose(right_only, [0.0, 0.0, 0.0], atol=1e-9)  # the left foot is not evaluated
+
+
+def test_foot_roll_prior_adds_a_gaussian_on_the_sideways_tilt_of_each_foot(seq) -> None:  # noqa: ANN001
+    """The prior term is -0.5 (roll / sigma)^2 per evaluated foot, roll = the angle of the sole's lateral axis to
+    the floor (hip abduction tilts it as much as ankle inversion does); pitch does not enter; off in the paper
+    preset."""
+    assert PAPER.foot_roll_prior_sigma == np.inf and np.isfinite(DEFAULT.foot_roll_prior_sigma)
+    x = _standing(4)
+    left, right = lm.L.leg(0), lm.L.leg(1)
+    x[1, left.start + lm.L.ANKLE_INV] = 0.2  # left sole turned 0.2 rad towards the midline
+    x[2, right.start + lm.L.HIP_ABD] = 0.15  # right leg abducted, ankle neutral: its sole tilts by as much
+    x[3, left.start + lm.L.ANKLE_FLEX] = -0.4  # left foot pitched onto its toes: no roll
+    x = lm.apply_floor_contact(x)
+    prior = _prior_term(seq, x, (0, 1), foot_roll_prior_sigma=0.1)
+    np.testing.assert_allclose(prior, [0.0, -0.5 * (0.2 / 0.1) ** 2, -0.5 * (0.15 / 0.1) ** 2, 0.0], atol=1e-9)
+    left_only = _prior_term(seq, x, (0,), foot_roll_prior_sigma=0.1)
+    np.testing.assert_allclose(left_only, [0.0, -2.0, 0.0, 0.0], atol=1e-9)  # the right foot is not evaluated
+
+
+def test_pelvis_prior_keeps_the_hips_over_the_centre_of_the_feet(seq) -> None:  # noqa: ANN001
+    """The prior term is -0.5 ((d_fwd / sigma_fwd)^2 + (d_lat / sigma_lat)^2), d = mid-hip minus the mean of both
+    heels and toes (horizontal): standing upright, the hips are above the ankles, (0.5 - HEEL_BACK) foot lengths
+    behind the feet's centre; moving the whole body changes nothing; off in the paper preset."""
+    assert PAPER.pelvis_prior_sigma == (np.inf, np.inf) and np.all(np.isfinite(DEFAULT.pelvis_prior_sigma))
+    sigma = (0.12, 0.06)
+    x = _standing(4)
+    x[1, lm.L.ROOT_X] += 0.2  # the whole body moved: no change
+    x[1, lm.L.ROOT_Y] -= 0.1
+    x[2, lm.L.leg(0).start + lm.L.HIP_ABD] = 0.2  # left leg abducted: its foot moves out, the feet's centre half as far
+    x[3, lm.L.LEN_FOOT] = 0.30  # longer feet: their centre moves forward
+    x = lm.apply_floor_contact(x)
+    prior = _prior_term(seq, x, (0, 1), pelvis_prior_sigma=sigma)
+    kin = lm.forward_kinematics(x)
+    behind = (0.5 - lm.HEEL_BACK) * x[:, lm.L.LEN_FOOT]  # standing: hips over the ankles
+    out = kin.points[2, 0, HEEL, 1] - kin.points[0, 0, HEEL, 1]  # how far the abducted foot moved out
+    assert out > 0.1
+    expected = -0.5 * (behind / sigma[0]) ** 2
+    expected[2] = -0.5 * (behind[2] / sigma[0]) ** 2 - 0.5 * (0.5 * out / sigma[1]) ** 2
+    np.testing.assert_allclose(prior, expected, atol=1e-6)
+    assert prior[0] == pytest.approx(prior[1], abs=1e-9)

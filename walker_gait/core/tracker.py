@@ -26,7 +26,8 @@ lives in the floor-aligned *body* frame of :mod:`walker_gait.core.leg_model`):
    Every weighting may add pose priors: from the front, a flat foot and one pitched onto its toes
    explain the same shoe front (the heel is hidden behind it), and without a prior the filter
    drifts into the tiptoe pose.  ``foot_pitch_prior_sigma`` (``default``) is a Gaussian on each
-   foot's pitch against the floor (heel-to-toe line), ``ankle_prior_sigma`` one on ankle flexion
+   foot's pitch against the floor (heel-to-toe line), ``foot_roll_prior_sigma`` (``default``) one on
+   its sideways tilt (the sole's lateral axis against the floor), ``ankle_prior_sigma`` one on ankle flexion
    around neutral; the pitch prior also holds a planted foot flat when the shank leans forward
    or back over it (late stance: hip extended, ankle dorsiflexed), where the ankle prior tilts it.
    With ``elliptic_foot`` (``default``) both cues see each foot as a half-ellipse as wide as a shoe
@@ -91,6 +92,7 @@ from walker_gait.core.likelihood import (
 from walker_gait.core.resampling import effective_sample_size, normalise_log_weights, resample
 from walker_gait.core.types import (
     HEEL,
+    HIP,
     JOINT_NAMES,
     TOE,
     CameraIntrinsics,
@@ -161,6 +163,8 @@ class TrackerConfig:
     # pose prior
     ankle_prior_sigma: float = math.inf  # rad, Gaussian prior on ankle flexion around neutral (inf = none, paper)
     foot_pitch_prior_sigma: float = math.inf  # rad, Gaussian prior on each foot's pitch against the floor (inf = none, paper)
+    foot_roll_prior_sigma: float = math.inf  # rad, Gaussian prior on each foot's sideways tilt (sole roll) against the floor (inf = none, paper)
+    pelvis_prior_sigma: tuple[float, float] = (math.inf, math.inf)  # m, Gaussian prior (forward, lateral) on the pelvis (mid-hip) over the centre of the feet (mean of heels and toes): the base of support (inf = none, paper)
     # track management
     min_fg_points: int = 60  # fewer foreground points = no user
     coast_frames: int = 0  # frames a track is held (DEGRADED, confidence 0) through a foreground dropout before it is dropped (0 = at once)
@@ -182,6 +186,10 @@ class TrackerConfig:
             raise ValueError("anneal_betas needs one entry per layer")
         if self.cue2d_stride < 1:
             raise ValueError("cue2d_stride must be >= 1")
+        if len(self.pelvis_prior_sigma) != 2 or not all(v > 0 for v in self.pelvis_prior_sigma):
+            raise ValueError(f"pelvis_prior_sigma must be two positive values (forward, lateral), got {self.pelvis_prior_sigma}")
+        if not (self.foot_roll_prior_sigma > 0 and self.foot_pitch_prior_sigma > 0):
+            raise ValueError("foot_pitch_prior_sigma and foot_roll_prior_sigma must be > 0 (inf = no prior)")
 
     def noise_vector(self) -> FloatArray:
         """Per-element diffusion std-devs ``(23,)``."""
@@ -240,6 +248,8 @@ DEFAULT = TrackerConfig(
     fine_2d_only=True,
     sigma_root=0.008,
     foot_pitch_prior_sigma=0.3,
+    foot_roll_prior_sigma=0.1,
+    pelvis_prior_sigma=(0.12, 0.06),
     elliptic_foot=True,
 )
 """Real-time preset: partitioned annealed sampling with 192 particles; coarse layers weighted by the 3D
@@ -510,6 +520,19 @@ class LegTracker:
                 v = kin.points[:, leg, TOE] - kin.points[:, leg, HEEL]  # heel -> toe, body frame (z up)
                 a = np.arctan2(v[:, 2], np.hypot(v[:, 0], v[:, 1])) / cfg.foot_pitch_prior_sigma
                 total -= 0.5 * a * a
+        if math.isfinite(cfg.foot_roll_prior_sigma):
+            # a sole rolled sideways stands on its edge with its heel-toe line off the floor; shoes stay
+            # nearly level across (subtalar motion of a few degrees), but from the front the roll is hardly
+            # observable, and without a prior it wanders and lifts the tracked heel and toe
+            for leg in legs:
+                r = np.arcsin(np.clip(kin.foot_lateral[:, leg, 2], -1.0, 1.0)) / cfg.foot_roll_prior_sigma
+                total -= 0.5 * r * r
+        if math.isfinite(cfg.pelvis_prior_sigma[0]) or math.isfinite(cfg.pelvis_prior_sigma[1]):
+            # the hips are out of view (the camera sees the shanks and feet) and only the dynamics carry them;
+            # a person walking stands over their feet, so keep the pelvis over the centre of the base of support
+            d = kin.points[:, :, HIP, :2].mean(axis=1) - kin.points[:, :, HEEL : TOE + 1, :2].mean(axis=(1, 2))
+            d /= np.asarray(cfg.pelvis_prior_sigma, dtype=float)
+            total -= 0.5 * np.einsum("pi,pi->p", d, d)
         if cfg.cue in ("3d", "combined"):
             total += log_likelihood_3d(
                 seg,
