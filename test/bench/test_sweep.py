@@ -48,6 +48,9 @@ def test_session_list() -> None:
 def test_spec_overrides_parse_check_and_tag_the_cache(capsys: pytest.CaptureFixture[str]) -> None:
     ov = sweep.spec_overrides('{"body_scale": [1.12, 1.2], "camera": ["kinect_v2_512x424"], "fps": 15}')
     assert ov == {"body_scale": (1.12, 1.2), "camera": ("kinect_v2_512x424",), "fps": 15}
+    # a bare name where the spec holds a tuple of names is a tuple of one (not its characters)
+    assert sweep.spec_overrides('{"camera": "realsense_424x240"}') == {"camera": ("realsense_424x240",)}
+    assert sweep.spec_overrides('{"clothing": "baggy"}') == {"clothing": ("baggy",)}
     assert sweep._spec_tag({}) == "" and sweep._spec_tag(None) == ""
     tag = sweep._spec_tag(ov)
     assert tag.startswith("_") and tag == sweep._spec_tag(dict(reversed(ov.items())))  # order-free

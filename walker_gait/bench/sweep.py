@@ -29,6 +29,7 @@ heels or ankles substituted: what the step metrics would be if that point were t
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import hashlib
 import json
 import math
@@ -96,7 +97,10 @@ def spec_overrides(text: str) -> dict[str, Any]:
         raise ValueError(str(exc)) from exc
     if not isinstance(raw, dict):
         raise ValueError("expected a JSON object of SessionSpec fields")
-    ov = {k: tuple(v) if isinstance(v, list) else v for k, v in raw.items()}
+    defaults = {f.name: f.default for f in dataclasses.fields(SessionSpec)}
+    # lists become tuples; a bare name for a tuple of names (camera, clothing) is a tuple of one
+    ov = {k: tuple(v) if isinstance(v, list) else (v,) if isinstance(v, str) and isinstance(defaults.get(k), tuple) else v
+          for k, v in raw.items()}
     for key in ("scenario", "duration"):
         if key in ov:
             raise ValueError(f"{key!r} is set by the sweep (--scenarios, --duration), not by --spec-override")
