@@ -97,10 +97,14 @@ def spec_overrides(text: str) -> dict[str, Any]:
         raise ValueError(str(exc)) from exc
     if not isinstance(raw, dict):
         raise ValueError("expected a JSON object of SessionSpec fields")
-    defaults = {f.name: f.default for f in dataclasses.fields(SessionSpec)}
-    # lists become tuples; a bare name for a tuple of names (camera, clothing) is a tuple of one
-    ov = {k: tuple(v) if isinstance(v, list) else (v,) if isinstance(v, str) and isinstance(defaults.get(k), tuple) else v
-          for k, v in raw.items()}
+    tuple_fields = {f.name for f in dataclasses.fields(SessionSpec) if isinstance(f.default, tuple)}
+    ov: dict[str, Any] = {}
+    for k, v in raw.items():
+        if isinstance(v, list):  # ranges, camera names
+            v = tuple(v)
+        elif isinstance(v, str) and k in tuple_fields:  # a bare name for a tuple of names (camera, clothing)
+            v = (v,)
+        ov[k] = v
     for key in ("scenario", "duration"):
         if key in ov:
             raise ValueError(f"{key!r} is set by the sweep (--scenarios, --duration), not by --spec-override")
