@@ -455,8 +455,20 @@ def _blocks(shift: int, *, leg_depth: float = 1.0) -> tuple[np.ndarray, np.ndarr
     return z, cand
 
 
+def _walking(sm: StaticStructureMask, n: int, *, start: int = 0) -> np.ndarray:
+    """``n`` frames of the leg block moving as walking legs do (sideways by whole grid cells and in depth);
+    returns the static pixels of the last one."""
+    got = np.zeros((60, 80), bool)
+    for i in range(start, start + n):
+        k = (i + 1) % 4
+        z, cand = _blocks(2 * k, leg_depth=0.9 + 0.1 * k)
+        assert sm.update(z, cand)
+        got = sm.static_pixels(z, cand)
+    return got
+
+
 def test_static_mask_learns_structure_only_while_the_user_moves() -> None:
-    cfg = StaticMaskConfig(frames=20, grid_stride=2)
+    cfg = StaticMaskConfig(frames=20, grid_stride=2, still_weight=0.0)  # the moving frames alone
     sm = StaticStructureMask(cfg)
     # the user stands still: nothing moves, nothing is learned however long it lasts (legs stay foreground)
     for _ in range(5 * cfg.frames):
@@ -481,6 +493,73 @@ def test_static_mask_learns_structure_only_while_the_user_moves() -> None:
     sm.update(z, cand)
     got = sm.static_pixels(z, cand)
     assert not got[30:50, 8:12].any() and got[30:50, 4:8].all() and got[30:50, 12:16].all()
+
+
+def test_static_mask_counts_a_view_unchanged_since_it_began_towards_structure() -> None:
+    """Before anything has moved, still frames count (``still_weight`` each, up to ``still_share`` of
+    ``frames``): the wheels of a walker waiting for its user are learned after the first few moving frames,
+    yet nothing is learned while nothing moves, legs standing still from the start are kept, and still
+    frames after the first motion (a stop) teach nothing."""
+    cfg = StaticMaskConfig(frames=20, grid_stride=2, still_weight=0.2, still_share=0.5)  # still frames: up to 10
+    wheel = np.zeros((60, 80), bool)
+    wheel[30:50, 4:16] = True
+
+    def empty() -> tuple[np.ndarray, np.ndarray]:  # the wheel alone: the user is out of view
+        z, cand = _blocks(0)
+        z[~wheel] = 3.0
+        return z, cand & wheel
+
+    # the walker waits, its user out of view: however long, nothing is learned before something moves
+    sm = StaticStructureMask(cfg)
+    for _ in range(200):
+        assert not sm.update(*empty())
+        assert not sm.static_pixels(*empty()).any()
+    assert sm.moving_frames == 0 and not sm.learned.any()
+    # the user walks in: the wheel is structure after frames x (1 - still_share) = 10 moving frames, not 20
+    assert not _walking(sm, 9).any()
+    got = _walking(sm, 1, start=9)
+    assert got[wheel].all() and not (got & ~wheel).any()
+    # without the still frames it takes the full 20
+    sm0 = StaticStructureMask(replace(cfg, still_weight=0.0))
+    for _ in range(200):
+        sm0.update(*empty())
+    assert not _walking(sm0, 19).any() and _walking(sm0, 1, start=19)[wheel].all()
+
+    # a user who stood still from the start keeps the legs once walking: only the wheel is learned
+    sm = StaticStructureMask(cfg)
+    for _ in range(200):
+        sm.update(*_blocks(0))
+    assert not sm.static_pixels(*_blocks(0)).any()
+    got = _walking(sm, 10)
+    assert got[wheel].all() and not (got & ~wheel).any()
+
+    # still frames after the first motion (the user stops) teach nothing: structure that appears during a stop
+    # needs the full `frames` moving frames
+    sm = StaticStructureMask(cfg)
+    sm.update(*_blocks(0))  # the first frame (everything new) is no motion
+    _walking(sm, 4)
+    box = np.zeros((60, 80), bool)
+    box[2:8, 60:72] = True  # something put on the walker while the user stands still
+
+    def with_box(shift: int, depth: float) -> tuple[np.ndarray, np.ndarray]:
+        z, cand = _blocks(shift, leg_depth=depth)
+        z[box] = 0.7
+        return z, cand | box
+
+    sm.update(*with_box(0, 1.0))  # the user stops and the box appears: that frame moves
+    for _ in range(200):
+        assert not sm.update(*with_box(0, 1.0))
+    for i in range(cfg.frames):
+        k = (i + 1) % 4
+        z, cand = with_box(2 * k, 0.9 + 0.1 * k)
+        assert sm.update(z, cand)
+        assert sm.static_pixels(z, cand)[box].all() == (i == cfg.frames - 1)
+
+
+def test_static_mask_config_rejects_bad_still_learning() -> None:
+    for bad in ({"still_weight": -0.1}, {"still_weight": math.inf}, {"still_share": 1.0}, {"still_share": -0.1}):
+        with pytest.raises(ValueError, match="still_"):
+            StaticStructureMask(StaticMaskConfig(**bad))
 
 
 def test_static_mask_forgets_structure_that_has_gone() -> None:

@@ -927,11 +927,23 @@ class StaticMaskConfig:
     motion_fraction: float = 0.03
     """A frame counts as moving when at least this fraction of the candidate cells changed depth
     (something moved: the user).  Frames in which nothing moves (a user standing still, an empty
-    view) teach nothing, so legs standing still are never learned as structure."""
+    view) teach nothing, so legs standing still are never learned as structure (but see ``still_weight``
+    for a view that has not changed since it began)."""
     grid_stride: int = 4
     """Image pixels per model cell along each axis (the model runs on a sub-sampled grid)."""
+    still_weight: float = 0.2
+    """Until the first moving frame in view (a scene unchanged since the camera started: the walker waiting
+    for its user, its wheels in the region of interest), each still frame counts this much of a moving frame
+    for the cells that keep their depth (0 = still frames teach nothing)."""
+    still_share: float = 0.67
+    """Those still frames may make up at most this share of ``frames``: structure always needs some moving
+    frames as well, so a user who stood still from the start is not learned before walking off."""
 
     def validate(self) -> None:
+        if not (math.isfinite(self.still_weight) and self.still_weight >= 0):
+            raise ValueError(f"static_mask.still_weight must be >= 0 and finite, got {self.still_weight}")
+        if not 0 <= self.still_share < 1:
+            raise ValueError(f"static_mask.still_share must be in [0, 1), got {self.still_share}")
         if self.frames < 1:
             raise ValueError(f"static_mask.frames must be >= 1, got {self.frames}")
         if not (self.tolerance >= 0 and self.tolerance_per_m2 >= 0):
@@ -958,14 +970,18 @@ class StaticStructureMask:
     sees farther than the reference (the structure has gone) or, before it is learned, something
     nearer is re-learned from scratch.  A user standing still makes no moving frames, so still legs
     are not learned; one leg held still for ``frames`` moving frames of the other one (the walker
-    stopped) would be, until it moves.
+    stopped) would be, until it moves.  Until the first moving frame, still frames count too, at
+    ``still_weight`` each and up to ``still_share`` of ``frames``: a walker whose user is still out of
+    view shows nothing but its own structure, which is then learned after the first ``frames x (1 -
+    still_share)`` moving frames (20 instead of 60) instead of being taken for a pair of legs while the user
+    walks in.
     """
 
     def __init__(self, config: StaticMaskConfig | None = None) -> None:
         self.config = config or StaticMaskConfig()
         self.config.validate()
         self._ref: F32 = np.empty((0, 0), dtype=np.float32)
-        self._count: NDArray[np.int32] = np.empty((0, 0), dtype=np.int32)
+        self._count: NDArray[np.float32] = np.empty((0, 0), dtype=np.float32)
         self._shape: tuple[int, int] = (0, 0)
         self.moving_frames = 0
         """Moving frames seen so far."""
@@ -990,7 +1006,7 @@ class StaticStructureMask:
         if first:  # (re)start: everything in view is new, which is no motion
             self._shape = (int(depth_m.shape[0]), int(depth_m.shape[1]))
             self._ref = np.full(z.shape, np.nan, dtype=np.float32)
-            self._count = np.zeros(z.shape, dtype=np.int32)
+            self._count = np.zeros(z.shape, dtype=np.float32)
             self.moving_frames = 0
         ref, count = self._ref, self._count
         with np.errstate(invalid="ignore"):
@@ -1011,6 +1027,11 @@ class StaticStructureMask:
         if moving:
             count[keep] += 1
             self.moving_frames += 1
+        elif self.moving_frames == 0 and not first and self.config.still_weight > 0:
+            # nothing has moved since the view began: what stays put counts, partly (see still_weight)
+            cap = np.float32(self.config.still_share * self.config.frames)
+            ck = count[keep]
+            count[keep] = np.maximum(ck, np.minimum(ck + np.float32(self.config.still_weight), cap))
         relearn = changed & cand
         ref[relearn] = z[relearn]
         count[changed] = 0
