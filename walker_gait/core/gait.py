@@ -750,6 +750,7 @@ class GaitAnalyzer:
             if at_rest[0].any() and at_rest[1].any():
                 self._state = GaitState.DOUBLE_SUPPORT
                 self._anchor = self._track[k, :, _T].copy()
+                self._rest_time[:] = t  # both feet at rest now (not at some time before the track began)
             return
         if self._state == GaitState.DOUBLE_SUPPORT:
             u = self._progression_dir()
