@@ -448,3 +448,102 @@ def test_pelvis_prior_keeps_the_hips_over_the_centre_of_the_feet(seq) -> None:  
     expected[2] = -0.5 * (behind[2] / sigma[0]) ** 2 - 0.5 * (0.5 * out / sigma[1]) ** 2
     np.testing.assert_allclose(prior, expected, atol=1e-6)
     assert prior[0] == pytest.approx(prior[1], abs=1e-9)
+
+
+def _depth_image(points: np.ndarray, intr) -> np.ndarray:  # noqa: ANN001
+    """Foreground depth image of camera-frame ``points`` (nearest point per pixel, NaN elsewhere)."""
+    uv = np.round(intr.project(points)).astype(int)
+    ok = (uv[:, 0] >= 0) & (uv[:, 0] < intr.width) & (uv[:, 1] >= 0) & (uv[:, 1] < intr.height)
+    depth = np.full((intr.height, intr.width), np.inf, np.float32)
+    np.minimum.at(depth, (uv[ok, 1], uv[ok, 0]), points[ok, 2].astype(np.float32))
+    return np.where(np.isfinite(depth), depth, np.nan).astype(np.float32)
+
+
+def _low_blob(floor: FloorPlane, *, x: tuple[float, float], y: tuple[float, float], top: float, n: int,
+              rng: np.random.Generator) -> np.ndarray:
+    """Camera-frame points of a box in the body frame (x forward from the user, y left), up to ``top`` m."""
+    body = lm.BodyFrame.from_floor(floor, mounting="facing_user")
+    box = np.column_stack([rng.uniform(*x, n), rng.uniform(*y, n), rng.uniform(0.03, top, n)])
+    return body.to_camera(box)
+
+
+def test_a_walker_wheel_alone_in_view_is_no_user() -> None:
+    """While the user is away, a walker's rear wheel with its fork (0.3 m high) is all the foreground: not
+    legs, so no track and no pose (the tracker without the check fits its legs to it).  The same frame with
+    the user's legs in view is tracked."""
+    floor = FloorPlane.from_camera_pose(height=0.70, pitch=0.50)
+    points = _low_blob(floor, x=(-0.75, -0.55), y=(-0.33, -0.25), top=0.30, n=20000, rng=np.random.default_rng(3))
+    depth = _depth_image(points, KINECT)
+    tracker = LegTracker(DEFAULT, KINECT, rng=np.random.default_rng(0))
+    assert DEFAULT.presence_height > 0 and PAPER.presence_height == 0
+    assert not tracker.legs_in_view(points, depth, floor)
+    for k in range(3):
+        pose = tracker.update(stamp=0.1 * k, points=points, depth_fg=depth, floor=floor)
+        assert pose.status == TrackStatus.NO_USER and np.isnan(pose.points).all()
+    assert tracker.particles is None
+    unchecked = LegTracker(preset("default", n_particles=32, init_rounds=1, presence_height=0.0), KINECT,
+                           rng=np.random.default_rng(0))
+    assert unchecked.update(stamp=0.0, points=points, depth_fg=depth, floor=floor).status != TrackStatus.NO_USER
+    # the user walks in beside the wheel: legs in view, tracked
+    from walker_gait.bench.tracker import render_frame
+
+    fr = render_frame(gait_state_standing(), intrinsics=KINECT, floor=floor, mounting="facing_user",
+                      rng=np.random.default_rng(1))
+    both = np.vstack([fr.points, points])
+    both_depth = np.fmin(fr.depth, depth)
+    assert tracker.legs_in_view(both, both_depth, floor)
+    assert tracker.update(stamp=1.0, points=both, depth_fg=both_depth, floor=floor).status != TrackStatus.NO_USER
+    # the user leaves again, the wheel stays: the track goes on for `lost_frames` frames (a frame whose legs
+    # fail the check for an instant costs nothing), then ends
+    after = [tracker.update(stamp=2.0 + 0.1 * k, points=points, depth_fg=depth, floor=floor).status
+             for k in range(DEFAULT.lost_frames + 2)]
+    assert TrackStatus.NO_USER not in after[: DEFAULT.lost_frames]
+    assert after[DEFAULT.lost_frames:] == [TrackStatus.NO_USER] * 2 and tracker.particles is None
+
+
+def gait_state_standing() -> np.ndarray:
+    return lm.neutral_state(right_hip_xy=(-0.85, -0.09), hip_dist=0.18)
+
+
+def test_legs_leaving_the_image_count_as_legs_whichever_border_is_up() -> None:
+    """A camera pitched steeply down sees the legs only up to ~0.2 m: they count as legs because they leave the
+    image through the border that is "up" (the top rows, or the bottom rows of a camera mounted upside down),
+    not because of their height."""
+    from walker_gait.bench.tracker import render_frame
+
+    floor = FloorPlane.from_camera_pose(height=0.70, pitch=0.90)
+    fr = render_frame(gait_state_standing(), intrinsics=KINECT, floor=floor, mounting="facing_user",
+                      rng=np.random.default_rng(1))
+    pts = fr.points.astype(np.float64)
+    assert floor.height(pts).max() < DEFAULT.presence_height  # nothing high enough to tell by height
+    assert np.isfinite(fr.depth[:5]).sum() > 100  # the legs fill part of the top rows
+    tracker = LegTracker(DEFAULT, KINECT, rng=np.random.default_rng(0))
+    assert tracker.legs_in_view(pts, fr.depth, floor)
+    # a walker's frame tube, 1 cm thick, leaving the image through the same rows beside a wheel: not legs
+    rng = np.random.default_rng(3)
+    tube = _low_blob(floor, x=(-0.855, -0.845), y=(-0.36, -0.35), top=0.35, n=3000, rng=rng)
+    wheel = _low_blob(floor, x=(-0.65, -0.45), y=(-0.40, -0.30), top=0.20, n=20000, rng=rng)
+    parts = np.vstack([tube, wheel])
+    parts_depth = _depth_image(parts, KINECT)
+    assert np.isfinite(parts_depth[:5]).any()
+    assert not tracker.legs_in_view(parts, parts_depth, floor)
+    # cut the legs 8 % of the image below its top: no longer leaving the view, so no longer legs
+    row = int(0.08 * KINECT.height)
+    cut = fr.depth.copy()
+    cut[:row] = np.nan
+    kept = pts[np.round(KINECT.project(pts)[:, 1]) >= row]
+    assert not tracker.legs_in_view(kept, cut, floor)
+    # the same view from a camera mounted upside down (rotated 180 deg about its optical axis)
+    flip = np.array([-1.0, -1.0, 1.0])
+    flipped_floor = FloorPlane(normal=floor.normal * flip, offset=floor.offset)
+    flipped = pts * flip
+    flipped_depth = _depth_image(flipped, KINECT)
+    assert np.isfinite(flipped_depth[-5:]).sum() > 100 and not np.isfinite(flipped_depth[:5]).any()
+    assert tracker.legs_in_view(flipped, flipped_depth, flipped_floor)
+    assert not tracker.legs_in_view(flipped, flipped_depth, floor)  # "up" taken from the floor, not the image
+
+
+def test_presence_config_is_validated() -> None:
+    for bad in ({"presence_height": -0.1}, {"presence_share": 1.5}, {"presence_band": 0.0}, {"presence_width": -1.0}):
+        with pytest.raises(ValueError):
+            preset("default", **bad)

@@ -3,8 +3,14 @@
 Pipeline of one :meth:`LegTracker.update` (camera frame in, camera frame out; the model
 lives in the floor-aligned *body* frame of :mod:`walker_gait.core.leg_model`):
 
-1. foreground check: fewer than ``min_fg_points`` points → ``NO_USER`` and the particle set is
-   dropped (the next frame with legs re-initialises);
+1. foreground check: fewer than ``min_fg_points`` points, or (``presence_height``, ``default``) a
+   foreground that does not show legs → ``NO_USER`` and the particle set is dropped (the next frame
+   with legs re-initialises; a track coasts through ``coast_frames`` frames without foreground first, and
+   goes on through ``lost_frames`` frames in a row without legs).  Legs belong to
+   a body above them, so they rise above knee height or leave the image through the border that is
+   "up" for the camera (:meth:`LegTracker.legs_in_view`); a walker's rear wheel in view while its user is
+   away does neither, and without the check the tracker fitted both legs to it and the gait analyzer
+   counted steps from their jitter;
 2. (re-)initialisation when there is no particle set: the foreground (body frame) is split
    into two leg blobs along the anatomical left axis (2-means on y; left = +y, so identity
    is fixed by geometry), hip positions are fitted from the blobs and particles are sampled
@@ -167,6 +173,10 @@ class TrackerConfig:
     pelvis_prior_sigma: tuple[float, float] = (math.inf, math.inf)  # m, Gaussian prior (forward, lateral) on the pelvis (mid-hip) over the centre of the feet (mean of heels and toes): the base of support (inf = none, paper)
     # track management
     min_fg_points: int = 60  # fewer foreground points = no user
+    presence_height: float = 0.0  # m; > 0: the foreground is a user only if it shows legs: `presence_share` of its points higher than this, or a part at least `presence_width` wide in the band along the image border that is "up" (else no user, a track ending after `lost_frames` such frames in a row: a walker's wheel alone in view; 0 = off, paper)
+    presence_share: float = 0.02  # fraction of the foreground points (at least 10) above `presence_height` that shows legs
+    presence_band: float = 0.04  # width of the image border band (fraction of the image) through which legs leave the view
+    presence_width: float = 0.04  # m, widest foreground part in that band that shows a leg (a walker's tube is thinner)
     coast_frames: int = 0  # frames a track is held (DEGRADED, confidence 0) through a foreground dropout before it is dropped (0 = at once)
     track_confidence: float = 0.55  # confidence for TRACKING
     degraded_confidence: float = 0.4  # below: DEGRADED
@@ -190,6 +200,10 @@ class TrackerConfig:
             raise ValueError(f"pelvis_prior_sigma must be two positive values (forward, lateral), got {self.pelvis_prior_sigma}")
         if not (self.foot_roll_prior_sigma > 0 and self.foot_pitch_prior_sigma > 0):
             raise ValueError("foot_pitch_prior_sigma and foot_roll_prior_sigma must be > 0 (inf = no prior)")
+        if not (self.presence_height >= 0 and 0 <= self.presence_share <= 1 and 0 < self.presence_band <= 0.5
+                and self.presence_width >= 0):
+            raise ValueError("presence_height and presence_width must be >= 0, presence_share in [0, 1] and "
+                             "presence_band in (0, 0.5]")
 
     def noise_vector(self) -> FloatArray:
         """Per-element diffusion std-devs ``(23,)``."""
@@ -245,6 +259,7 @@ DEFAULT = TrackerConfig(
     min_explained=0.75,
     lost_leg_frames=6,
     coast_frames=15,
+    presence_height=0.40,
     fine_2d_only=True,
     sigma_root=0.008,
     foot_pitch_prior_sigma=0.3,
@@ -371,6 +386,7 @@ class LegTracker:
         self._hidden = _HiddenState()
         self.status = TrackStatus.NO_USER
         self._coasted = 0
+        self._no_legs_run = 0  # consecutive frames whose foreground showed no legs (`legs_in_view`)
         self._last_pose: LegPose | None = None
 
     @property
@@ -407,7 +423,17 @@ class LegTracker:
         # is no walker frame to track in and no region of interest, so the frame counts as one without foreground
         no_floor = not (floor.valid and np.all(np.isfinite(floor.normal)) and math.isfinite(floor.offset))
 
-        if no_floor or pts.shape[0] < cfg.min_fg_points:
+        empty = no_floor or pts.shape[0] < cfg.min_fg_points
+        if not empty:
+            # a track ends once `lost_frames` frames in a row show no legs (the user has left, a wheel stays in
+            # view); until then it goes on as usual, so a frame whose legs happen not to pass the check (they
+            # reach neither knee height nor the image border for an instant) costs nothing
+            self._no_legs_run = 0 if self.legs_in_view(pts, depth, floor) else self._no_legs_run + 1
+            if self._no_legs_run > (cfg.lost_frames if self.status != TrackStatus.NO_USER else 0):
+                self.reset()
+                self._no_legs_run = 1
+                return self._empty_pose(stamp)
+        if empty:
             if self._x is not None and self._last_pose is not None and self._coasted < cfg.coast_frames:
                 # a brief dropout (a leg in front of the lens, nearer than the sensor's range, blanks the
                 # view): hold the track instead of re-detecting from whatever partial view comes next
@@ -458,6 +484,50 @@ class LegTracker:
         return pose
 
     # ------------------------------------------------------------------ internals
+    def legs_in_view(self, points: FloatArray, depth_fg: NDArray[np.floating], floor: FloorPlane) -> bool:
+        """Whether the foreground shows legs rather than low things alone (``presence_height``; always
+        true when it is 0).
+
+        A leg belongs to a body above it, so in the image it rises out of the view or above knee height:
+        at least ``presence_share`` of the points (and 10) higher than ``presence_height`` above the
+        floor, or a foreground part at least ``presence_width`` wide (metres, at its depth) in the
+        ``presence_band`` of the image along the border that is "up" for this camera (the floor
+        normal projected into the image: the top rows for an upright camera, the bottom rows for one
+        mounted upside down).  A walker's wheel, in view while its user is away, is neither: 0.3 m high
+        at most, its frame tubes 1-2 cm wide where they leave the image.
+        """
+        cfg = self.config
+        if cfg.presence_height <= 0:
+            return True
+        h = floor.height(points)
+        if np.count_nonzero(h > cfg.presence_height) >= max(10.0, cfg.presence_share * h.shape[0]):
+            return True
+        return self._border_width(depth_fg, floor) >= cfg.presence_width
+
+    def _border_width(self, depth_fg: NDArray[np.floating], floor: FloorPlane) -> float:
+        """Width (m) of the widest foreground part in the band along the image border that is "up"."""
+        intr = self.intrinsics
+        p0 = np.array([0.0, 0.0, 1.0])
+        uv = intr.project(np.stack([p0, p0 + 0.1 * np.asarray(floor.normal, dtype=np.float64)]))
+        du, dv = uv[1] - uv[0]  # image direction of "up" at the optical axis
+        h, w = depth_fg.shape
+        if abs(dv) >= abs(du):
+            b = max(1, int(round(self.config.presence_band * h)))
+            band, focal = (depth_fg[:b] if dv <= 0 else depth_fg[h - b :]), intr.fx
+            axis = 0
+        else:
+            b = max(1, int(round(self.config.presence_band * w)))
+            band, focal = (depth_fg[:, :b] if du <= 0 else depth_fg[:, w - b :]), intr.fy
+            axis = 1
+        with np.errstate(invalid="ignore"):
+            z = np.where(np.isfinite(band) & (band > 0), band, np.inf).min(axis=axis)
+        occupied = np.isfinite(z)
+        if not occupied.any():
+            return 0.0
+        edges = np.flatnonzero(np.diff(np.concatenate([[0], occupied.view(np.int8), [0]])))
+        return max(float((stop - start) * np.median(z[start:stop]) / focal)
+                   for start, stop in zip(edges[::2], edges[1::2], strict=True))
+
     def _empty_pose(self, stamp: float) -> LegPose:
         return LegPose(
             stamp=stamp,
