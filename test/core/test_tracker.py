@@ -507,7 +507,7 @@ def test_a_walker_wheel_alone_in_view_is_no_user() -> None:
     # the user walks in beside the wheel: legs in view, tracked
     from walker_gait.bench.tracker import render_frame
 
-    fr = render_frame(gait_state_standing(), intrinsics=KINECT, floor=floor, mounting="facing_user",
+    fr = render_frame(_standing(1)[0], intrinsics=KINECT, floor=floor, mounting="facing_user",
                       rng=np.random.default_rng(1))
     both = np.vstack([fr.points, points])
     both_depth = np.fmin(fr.depth, depth)
@@ -521,10 +521,6 @@ def test_a_walker_wheel_alone_in_view_is_no_user() -> None:
     assert after[DEFAULT.lost_frames:] == [TrackStatus.NO_USER] * 2 and tracker.particles is None
 
 
-def gait_state_standing() -> np.ndarray:
-    return lm.neutral_state(right_hip_xy=(-0.85, -0.09), hip_dist=0.18)
-
-
 def test_legs_leaving_the_image_count_as_legs_whichever_border_is_up() -> None:
     """A camera pitched steeply down sees the legs only up to ~0.2 m: they count as legs because they leave the
     image through the border that is "up" (the top rows, or the bottom rows of a camera mounted upside down),
@@ -532,7 +528,7 @@ def test_legs_leaving_the_image_count_as_legs_whichever_border_is_up() -> None:
     from walker_gait.bench.tracker import render_frame
 
     floor = FloorPlane.from_camera_pose(height=0.70, pitch=0.90)
-    fr = render_frame(gait_state_standing(), intrinsics=KINECT, floor=floor, mounting="facing_user",
+    fr = render_frame(_standing(1)[0], intrinsics=KINECT, floor=floor, mounting="facing_user",
                       rng=np.random.default_rng(1))
     pts = fr.points.astype(np.float64)
     assert floor.height(pts).max() < DEFAULT.presence_height  # nothing high enough to tell by height

@@ -430,17 +430,7 @@ class LegTracker:
         # is no walker frame to track in and no region of interest, so the frame counts as one without foreground
         no_floor = not (floor.valid and np.all(np.isfinite(floor.normal)) and math.isfinite(floor.offset))
 
-        empty = no_floor or pts.shape[0] < cfg.min_fg_points
-        if not empty:
-            # a track ends once `lost_frames` frames in a row show no legs (the user has left, a wheel stays in
-            # view); until then it goes on as usual, so a frame whose legs happen not to pass the check (they
-            # reach neither knee height nor the image border for an instant) costs nothing
-            self._no_legs_run = 0 if self.legs_in_view(pts, depth, floor) else self._no_legs_run + 1
-            if self._no_legs_run > (cfg.lost_frames if self.status != TrackStatus.NO_USER else 0):
-                self.reset()
-                self._no_legs_run = 1
-                return self._empty_pose(stamp)
-        if empty:
+        if no_floor or pts.shape[0] < cfg.min_fg_points:
             if self._x is not None and self._last_pose is not None and self._coasted < cfg.coast_frames:
                 # a brief dropout (a leg in front of the lens, nearer than the sensor's range, blanks the
                 # view): hold the track instead of re-detecting from whatever partial view comes next
@@ -448,6 +438,14 @@ class LegTracker:
                 return dataclasses.replace(self._last_pose, stamp=stamp, status=TrackStatus.DEGRADED,
                                            confidence=0.0)
             self.reset()
+            return self._empty_pose(stamp)
+        # a track ends once `lost_frames` frames in a row show no legs (the user has left, a wheel stays in
+        # view); until then it goes on as usual, so a frame whose legs happen not to pass the check (they
+        # reach neither knee height nor the image border for an instant) costs nothing
+        self._no_legs_run = 0 if self.legs_in_view(pts, depth, floor) else self._no_legs_run + 1
+        if self._no_legs_run > (cfg.lost_frames if self.status != TrackStatus.NO_USER else 0):
+            self.reset()
+            self._no_legs_run = 1
             return self._empty_pose(stamp)
         self._coasted = 0
 
