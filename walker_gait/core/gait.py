@@ -157,6 +157,10 @@ class GaitConfig:
     toe for the step vector where the tracker reports that foot hidden (0 = always the raw positions)."""
     planted_fit_window_s: float = 1.5
     """History (s, bounded by that foot's own heel strike) the planted-foot fit may use."""
+    landing_toe_fit_s: float = 0.3
+    """Time (s) after the double support over which the landing foot's toe, in the frames in which that foot is
+    flat, gives its footprint for the step vector (toe to toe; the camera sees the toes, the heels are hidden
+    behind them).  Steps are emitted this much later.  0: the landing foot's tracked heel instead."""
     progression_strides: int = 4
     """Number of recent strides averaged for the line of progression."""
     max_step_time_s: float = 2.5
@@ -204,7 +208,8 @@ class GaitConfig:
         for name, value in positive.items():
             if not (math.isfinite(value) and value > 0):
                 raise GaitInputError(f"GaitConfig.{name} must be positive and finite, got {value}")
-        for name, value in (("planted_fit_sigma_s", self.planted_fit_sigma_s), ("hs_height_weight", self.hs_height_weight)):
+        for name, value in (("planted_fit_sigma_s", self.planted_fit_sigma_s), ("hs_height_weight", self.hs_height_weight),
+                            ("landing_toe_fit_s", self.landing_toe_fit_s)):
             if not (math.isfinite(value) and value >= 0):
                 raise GaitInputError(f"GaitConfig.{name} must be >= 0 and finite, got {value}")
         if self.progression_strides < 1:
@@ -380,8 +385,9 @@ class GaitAnalyzer:
     Call :meth:`update` once per frame in strictly increasing stamp order, optionally
     :meth:`update_odometry` whenever odometry arrives, :meth:`finish` at the end of a
     recording.  Results are returned as they are finalised (events typically
-    ``smoothing_half_window_s + event_fit_post_s + rest_window_s`` late, steps when the
-    following double support ends, at most ``double_support_max_s`` later), stamped with
+    ``smoothing_half_window_s + event_fit_post_s + rest_window_s`` late, steps
+    ``landing_toe_fit_s`` after the following double support ends, at most ``double_support_max_s +
+    landing_toe_fit_s`` after their heel strike), stamped with
     their interpolated true times.
     """
 
@@ -949,7 +955,9 @@ class GaitAnalyzer:
         keep_s: list[_PendingStep] = []
         for ps in self._pending_steps:
             limit = ps.t_hs + c.double_support_max_s
-            if ps.t_end is not None or t_avail >= limit or final or before is not None:
+            # the landing foot's footprint needs its flat frames after the double support (`_landing_toe`)
+            closed = ps.t_end is not None and t_avail >= ps.t_end + c.landing_toe_fit_s
+            if closed or t_avail >= limit + c.landing_toe_fit_s or final or before is not None:
                 if ps.t_end is None:
                     ps.t_end = min(limit, t_avail if math.isfinite(t_avail) else limit)
                 self._finish_step(ps)
@@ -1041,6 +1049,33 @@ class GaitAnalyzer:
         alpha = self._vis[idx, f][:, None] ** 2  # a fully seen foot keeps its raw position
         return alpha * raw + (1.0 - alpha) * out
 
+    def _landing_toe(self, idx: NDArray[np.intp], a: int, t_lo: float, t_hi: float) -> FloatArray | None:
+        """``(len(idx), 2)`` xy (walker frame) of the footprint of landing foot ``a``'s toe at frames ``idx``.
+
+        A linear fit over time of the toe in the frames of ``[t_lo, t_hi]`` in which the foot is flat (heel and
+        toe in the planted band), weighted by frame quality and the square of the foot's visibility, evaluated at
+        ``idx``: a planted toe only drifts through the walker frame with the walker's smooth motion, and the
+        landing foot comes flat only after its heel strike, so the fit reaches back into the double support
+        from the frames that follow it.  None with fewer than three flat frames.
+        """
+        series = self._raw[:, a, _T, :2]
+        src = self._valid_range(t_lo, t_hi)
+        src = src[(self._weight[src, a, _T] >= 0.5) & (self._weight[src, a, _H] >= 0.5)
+                  & np.all(np.isfinite(series[src]), axis=1)]
+        if src.size < 3:
+            return None
+        ts = self._t[src]
+        xy = series[src]
+        w = np.maximum(self._vis[src, a], 0.05) ** 2 * np.maximum(self._q[src], 1e-3)
+        sw = float(w.sum())
+        mt = float(w @ ts) / sw
+        var = float(w @ (ts - mt) ** 2) / sw
+        mean = (w @ xy) / sw
+        if var < 1e-6:  # all weight on one instant: no slope
+            return np.repeat(mean[None], idx.size, axis=0)
+        slope = (w * (ts - mt)) @ (xy - mean) / (sw * var)
+        return mean + (self._t[idx] - mt)[:, None] * slope
+
     def _ankle_vector(self, idx: NDArray[np.intp], a: int, b: int) -> FloatArray | None:
         """Heel-to-heel vector (xy) of feet ``a`` and ``b`` from their ankles over frames ``idx``.
 
@@ -1090,8 +1125,21 @@ class GaitAnalyzer:
         t_from = max(hs_b[-1] if hs_b else -math.inf, ps.t_hs - c.planted_fit_window_s)
         if idx.size:
             toe_b = self._planted_toe(idx, b, t_from, fit_only=fit_only)
-            v = self._raw[idx, a, _H, :2] - toe_b - o
-            d = v.mean(axis=0)
+            toe_a = None
+            if c.landing_toe_fit_s > 0:
+                toe_a = self._landing_toe(idx, a, ps.t_hs, t_end + c.landing_toe_fit_s)
+            if toe_a is not None:
+                # toe to toe: a footprint's heel-toe offset is the same for both feet along the progression;
+                # frames in which both toes are planted and a's foot is flat need no fit (the walker's
+                # motion cancels), the others take a's toe from the fit
+                flat = (self._weight[idx, a, _T] >= 0.5) & (self._weight[idx, a, _H] >= 0.5)
+                flat &= np.all(np.isfinite(self._raw[idx, a, _T, :2]), axis=1)
+                if flat.any():
+                    d = (self._raw[idx[flat], a, _T, :2] - toe_b[flat]).mean(axis=0)
+                else:
+                    d = (toe_a - toe_b).mean(axis=0)
+            else:
+                d = (self._raw[idx, a, _H, :2] - toe_b - o).mean(axis=0)
             lateral = self._ankle_vector(idx, a, b)
         else:  # no frame inside the double support (very short one): nearest frame
             near = self._valid_range(ps.t_hs - 0.1, ps.t_hs + 0.1)
@@ -1117,7 +1165,14 @@ class GaitAnalyzer:
         stride_vec = None
         if self._footprint[a] is not None and np.all(np.isfinite(fp_a_new)):
             stride_vec = fp_a_new - self._footprint[a]
-            if np.hypot(*stride_vec) > c.min_swing_distance_m:
+            # the line of progression comes from strides that go forward, away from the walker's rear: its user
+            # walks behind it, towards its front; a stride pointing back is a tracking error (a left/right
+            # swap, a junk step), and letting it turn the line around made the state machine pick the wrong
+            # swinging foot from then on
+            forward = np.array([-1.0, 0.0])
+            if self._odo:
+                forward = _rot2(self._walker_yaw(ps.t_hs)) @ forward
+            if np.hypot(*stride_vec) > c.min_swing_distance_m and float(stride_vec @ forward) > 0.0:
                 self._strides.append(stride_vec)
                 self._strides = self._strides[-max(c.progression_strides, 1) :]
         self._footprint[a] = fp_a_new
