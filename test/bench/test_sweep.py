@@ -76,6 +76,20 @@ def test_summarise_hand_built_errors() -> None:
     assert s["step_length_bias_cm"] == pytest.approx(1.0) and s["step_length_mae_cm"] == pytest.approx(1.0)
     assert s["step_width_bias_cm"] == pytest.approx(3.0)
     assert s["trailing_toe_median_cm"] == pytest.approx(4.0) and s["trailing_toe_mean_cm"] == pytest.approx(4.0)
+    # every detected step is confident (Step's default confidence 1.0): the confident figures are the same
+    assert s["confident_share"] == 1.0 and s["step_length_mae_confident_cm"] == pytest.approx(1.0)
+    assert s["step_width_mae_confident_cm"] == pytest.approx(3.0)
+    # a step the analyzer doubts is left out of the confident figures only
+    r = _run()
+    r.det[1] = replace(r.det[1], step_length=0.35, confidence=0.2)  # 20 cm short
+    d = sweep.summarise([r])
+    assert d["step_length_mae_cm"] == pytest.approx((1 + 20) / 2) and d["confident_share"] == 0.5
+    assert d["step_length_mae_confident_cm"] == pytest.approx(1.0) and d["step_width_mae_confident_cm"] == pytest.approx(3.0)
+    table = sweep.format_table({"x": {"per_tracker_seed": {0: d}}})
+    assert "| confident: length MAE cm | 1.00 |" in table and "| confident steps share | 0.50 |" in table
+    # a summary written before a figure existed shows it as n/a
+    old = {k: v for k, v in d.items() if k != "confident_share"}
+    assert "| confident steps share | n/a |" in sweep.format_table({"x": {"per_tracker_seed": {0: old}}})
     # a frame lost (no estimate) counts as > 10 cm
     r = _run()
     r.est[10] = np.nan

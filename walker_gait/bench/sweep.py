@@ -20,7 +20,8 @@ so with the analyzer unchanged the figures are the sweep's own.
 Figures (``summary.json``; lengths in cm): joint errors over frames with both legs in view, the share
 of those frames with a mean error > 10 cm, errors on the *well-tracked* frames (mean error ≤ 10 cm:
 little moved by the chaos), the model foot's length bias, step detection (recall also over the steps
-in view, :func:`~walker_gait.bench.endtoend.steps_in_view`), step length/width error, and per scenario
+in view, :func:`~walker_gait.bench.endtoend.steps_in_view`), step length/width error (over every matched
+step, and over the confident ones the gait summaries pool), and per scenario
 the progression error of the trailing foot's toe at each true heel strike (the reference point of the
 step vector).  ``--oracle`` also re-runs the gait analyzer on the tracked poses with the true toes,
 heels or ankles substituted: what the step metrics would be if that point were tracked exactly.
@@ -219,14 +220,24 @@ def _progression(run: SessionRun) -> np.ndarray:
 
 
 def _step_errors(runs: list[SessionRun]) -> dict[str, float]:
-    length = np.array([r.det[j].step_length - r.gt[t].step_length for r in runs for t, j in r.pairs]) * 100
-    width = np.array([r.det[j].step_width - r.gt[t].step_width for r in runs for t, j in r.pairs
-                      if math.isfinite(r.gt[t].step_width)]) * 100
+    """Step length and width errors (cm) over every matched step, and over the confident ones alone: those the
+    gait summaries pool (confidence at least ``GaitConfig.summary_min_confidence``)."""
+    from walker_gait.core.gait import GaitConfig
+
+    cut = GaitConfig().summary_min_confidence
+    pairs = [(r.gt[t], r.det[j]) for r in runs for t, j in r.pairs]
+    length = np.array([d.step_length - g.step_length for g, d in pairs]) * 100
+    width = np.array([d.step_width - g.step_width for g, d in pairs]) * 100
+    sure = np.array([d.confidence >= cut for _, d in pairs], dtype=bool)
+    has_w = np.isfinite(width)
     out: dict[str, float] = {}
-    for name, e in (("length", length), ("width", width)):
+    for name, e in (("length", length), ("width", width[has_w])):
         out[f"step_{name}_mae_cm"] = float(np.mean(np.abs(e))) if e.size else math.nan
         out[f"step_{name}_bias_cm"] = float(np.mean(e)) if e.size else math.nan
         out[f"step_{name}_median_abs_cm"] = float(np.median(np.abs(e))) if e.size else math.nan
+    for name, e in (("length", length[sure]), ("width", width[sure & has_w])):
+        out[f"step_{name}_mae_confident_cm"] = float(np.mean(np.abs(e))) if e.size else math.nan
+    out["confident_share"] = float(sure.mean()) if sure.size else math.nan
     return out
 
 
@@ -329,6 +340,7 @@ def report(runs: list[SessionRun], *, with_oracle: bool = False) -> dict[str, An
         s = summarise(sub)
         out["per_scenario"][sc] = {k: s[k] for k in ("joint_err_cm", "frames_over_10cm_pct", "matched_steps", "gt_steps",
                                                      "step_length_mae_cm", "step_length_bias_cm", "step_width_mae_cm",
+                                                     "confident_share", "step_length_mae_confident_cm",
                                                      "trailing_toe_median_cm")}
     if with_oracle:
         out["oracle"] = {str(s): {name: oracle([r for r in runs if r.tracker_seed == s], pts)
@@ -344,6 +356,9 @@ _ROWS = (("heel err cm", ("joint_err_cm", "heel")), ("toe err cm", ("joint_err_c
          ("recall in view", ("recall_in_view",)), ("precision", ("precision",)),
          ("step length MAE cm", ("step_length_mae_cm",)), ("step length bias cm", ("step_length_bias_cm",)),
          ("step width MAE cm", ("step_width_mae_cm",)), ("step width bias cm", ("step_width_bias_cm",)),
+         ("confident steps share", ("confident_share",)),
+         ("confident: length MAE cm", ("step_length_mae_confident_cm",)),
+         ("confident: width MAE cm", ("step_width_mae_confident_cm",)),
          ("trailing toe median cm", ("trailing_toe_median_cm",)), ("tracker ms/frame", ("tracker_ms",)))
 
 
@@ -357,8 +372,8 @@ def format_table(summaries: dict[str, dict[str, Any]]) -> str:
         for _, _, s in cols:
             v: Any = s
             for p in path:
-                v = v[p]
-            vals.append(f"{v:.2f}" if isinstance(v, float) else str(v))
+                v = v.get(p) if isinstance(v, dict) else None  # sweeps written before a figure existed lack it
+            vals.append(f"{v:.2f}" if isinstance(v, float) else "n/a" if v is None else str(v))
         lines.append(f"| {label} | " + " | ".join(vals) + " |")
     return "\n".join(lines)
 
