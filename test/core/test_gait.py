@@ -70,10 +70,10 @@ def test_input_validation() -> None:
     with pytest.raises(GaitInputError):
         GaitConfig(rest_speed_mps=-1.0)
     for bad in ({"planted_fit_sigma_s": -0.1}, {"planted_fit_window_s": 0.0}, {"hs_height_weight": math.nan},
-                {"landing_toe_fit_s": -0.3}):
+                {"landing_toe_fit_s": -0.3}, {"landing_visibility": 1.5}, {"landing_visibility": math.nan}):
         with pytest.raises(GaitInputError, match=next(iter(bad))):
             GaitConfig(**bad)
-    GaitConfig(planted_fit_sigma_s=0.0, hs_height_weight=0.0, landing_toe_fit_s=0.0)  # 0 = off
+    GaitConfig(planted_fit_sigma_s=0.0, hs_height_weight=0.0, landing_toe_fit_s=0.0, landing_visibility=0.0)  # 0 = off
 
 
 def test_frame_quality_rule() -> None:
@@ -226,6 +226,49 @@ def test_landing_footprint_comes_from_its_toe() -> None:
     assert toe["precision"] == 1.0 and toe["recall"] == 1.0
     assert toe["step_length_mae"] < 0.002  # measured 0.0002
     assert heel["step_length_mae"] > 0.012  # measured 0.018
+
+
+def test_a_step_whose_landing_foot_was_not_seen_is_doubted() -> None:
+    """The tracker places a foot it does not see by its motion model; a step whose landing foot was hidden from
+    just before its heel strike to 0.2 s after it (the frames that time the strike and place the footprint) gets
+    a confidence in proportion to that foot's visibility and drops out of the summary means, however plausible
+    its geometry.  A foot half hidden (visibility 0.5, the threshold) costs nothing, nor do the other steps."""
+    spec = SCENARIOS["normal"]
+    sim = simulate_gait(spec, rng=np.random.default_rng(0))
+    strikes = [(int(e.side), e.stamp) for e in sim.events if e.kind == EventKind.HEEL_STRIKE]
+    f_hid, t_hid = strikes[len(strikes) // 2]
+    f_half, t_half = strikes[len(strikes) // 2 + 2]
+
+    def seen(v_hid: float) -> list[LegPose]:
+        out = []
+        for p in sim.poses:
+            vis = np.ones((2, 3))
+            if t_hid - 0.15 <= p.stamp <= t_hid + 0.25:
+                vis[f_hid, 1:] = v_hid
+            if t_half - 0.15 <= p.stamp <= t_half + 0.25:
+                vis[f_half, 2] = 0.5
+            out.append(replace(p, visibility=vis))
+        return out
+
+    def by_strike(steps: list[Step]) -> dict[float, Step]:
+        pairs, _, _ = match_steps(sim.steps, steps)
+        return {sim.steps[i].stamp: steps[j] for i, j in pairs}
+
+    plain = by_strike(run_analyzer(sim.poses, sim.floor).steps)
+    for v_hid, cfg in ((0.1, GaitConfig()), (0.1, GaitConfig(landing_visibility=0.0)), (1.0, GaitConfig())):
+        ga = run_analyzer(seen(v_hid), sim.floor, config=cfg)
+        got = by_strike(ga.steps)
+        assert got.keys() == plain.keys() and len(got) == len(sim.steps)
+        for t, st in got.items():
+            hidden = abs(t - t_hid) < 0.05 and v_hid < 0.5 and cfg.landing_visibility > 0
+            assert st.step_length == plain[t].step_length  # the footprint is the same; only the trust in it differs
+            if hidden:
+                assert st.confidence == pytest.approx(plain[t].confidence * v_hid / 0.5, rel=0.05)
+            else:
+                assert st.confidence == plain[t].confidence
+        n_good = sum(1 for st in got.values() if st.confidence >= cfg.summary_min_confidence)
+        assert ga.summary().step_count == len(got)  # counted ...
+        assert n_good == len(got) - (1 if v_hid < 0.5 and cfg.landing_visibility > 0 else 0)  # ... not pooled
 
 
 def test_temporal_parameters_match_ground_truth() -> None:
