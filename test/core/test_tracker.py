@@ -44,7 +44,8 @@ def test_presets() -> None:
     with pytest.raises(ValueError):
         preset("nope")
     for bad in ({"pelvis_prior_sigma": (0.1,)}, {"pelvis_prior_sigma": (0.1, 0.0)}, {"foot_roll_prior_sigma": -0.1},
-                {"feet_crossing_sigma": 0.0}):
+                {"feet_crossing_sigma": 0.0}, {"hidden_search_share": 1.5}, {"hidden_search_unexplained": 1.0},
+                {"hidden_search_frames": 0}, {"hidden_velocity_damping": -0.1}):
         with pytest.raises(ValueError):
             preset("default", **bad)
 
@@ -289,24 +290,30 @@ def test_redetects_when_the_second_leg_enters_view() -> None:
     assert late_error(0.0) > 2 * with_redetection  # the scenario does need the re-detection
 
 
+def _raise_left_leg(tr: LegTracker) -> None:
+    """Every particle's left leg raised above the image (hip flexed to its limit, knee straight)."""
+    L = lm.StateLayout
+    assert tr.particles is not None
+    x = tr.particles.copy()
+    x[:, L.LEFT.start + L.HIP_FLEX] = lm.STATE_UPPER[L.LEFT.start + L.HIP_FLEX]
+    x[:, L.LEFT.start + L.KNEE_FLEX] = 0.0
+    tr._x, _, _ = lm.enforce_constraints(x, fallback=tr.particles)
+    tr._x_prev = tr._x.copy()
+
+
 def test_reinitialises_when_a_leg_leaves_the_data(seq) -> None:  # noqa: ANN001
     """A model leg pushed out of the view (here: every particle's left hip flexed to its limit, the leg
     raised above the image) is not hidden, it is lost: with ``lost_leg_frames`` the track re-initialises
     after that many frames and finds the leg again.  ``min_explained`` is off so that this rule alone acts
-    (on the walker the other model leg often explains both close legs' foreground, and nothing else fires)."""
-    L = lm.StateLayout
-    flex = L.LEFT.start + L.HIP_FLEX
+    (on the walker the other model leg often explains both close legs' foreground, and nothing else fires),
+    and so is the search for hidden legs (``hidden_search_share``, which would find it too)."""
 
     def run(lost_leg_frames: int, seed: int) -> tuple[int, list[float]]:
-        cfg = preset("default", n_particles=64, init_rounds=4, min_explained=0.0, lost_leg_frames=lost_leg_frames)
+        cfg = preset("default", n_particles=64, init_rounds=4, min_explained=0.0, lost_leg_frames=lost_leg_frames,
+                     hidden_search_share=0.0)
         tr = LegTracker(cfg, KINECT, rng=np.random.default_rng(seed))
         _run(tr, seq.frames[:8])
-        assert tr.particles is not None
-        x = tr.particles
-        x[:, flex] = lm.STATE_UPPER[flex]
-        x[:, L.LEFT.start + L.KNEE_FLEX] = 0.0
-        tr._x, _, _ = lm.enforce_constraints(x, fallback=tr.particles)
-        tr._x_prev = tr._x.copy()
+        _raise_left_leg(tr)
         inits: list[int] = []
         search = tr._initialise
         tr._initialise = lambda frame: (inits.append(1), search(frame))[1]  # type: ignore[method-assign]
@@ -321,6 +328,87 @@ def test_reinitialises_when_a_leg_leaves_the_data(seq) -> None:  # noqa: ANN001
         assert max(foot[8:]) < 0.1, foot  # ... then found again (left ankle, heel, toe)
         n_init, foot = run(0, seed)
         assert n_init == 0 and min(foot) > 0.5, foot  # without the rule nothing brings it back
+
+
+def test_a_hidden_leg_is_searched_for_where_foreground_is_unexplained(seq) -> None:  # noqa: ANN001
+    """A model leg that nobody sees (HIDDEN) is out of ``d_MF``; where the estimate leaves foreground
+    unexplained, ``hidden_search_share`` of the particles draw that leg afresh from a wide range of poses,
+    and the leg finds its data again without a re-initialisation.  Re-initialisations are off here
+    (``min_explained``, ``lost_leg_frames``) so that this rule alone acts."""
+
+    def run(share: float, seed: int) -> tuple[int, list[float]]:
+        cfg = preset("default", n_particles=64, init_rounds=4, min_explained=0.0, lost_leg_frames=0,
+                     hidden_search_share=share)
+        tr = LegTracker(cfg, KINECT, rng=np.random.default_rng(seed))
+        _run(tr, seq.frames[:8])
+        _raise_left_leg(tr)
+        inits: list[int] = []
+        search = tr._initialise
+        tr._initialise = lambda frame: (inits.append(1), search(frame))[1]  # type: ignore[method-assign]
+        poses = _run(tr, seq.frames[8:24])
+        foot = [float(np.linalg.norm(p.points[0, 2:] - f.gt[0, 2:], axis=-1).mean()) for p, f in zip(poses, seq.frames[8:24])]
+        return len(inits), foot
+
+    assert DEFAULT.hidden_search_share > 0
+    for seed in (0, 1):
+        n_init, foot = run(DEFAULT.hidden_search_share, seed)
+        assert n_init == 0
+        assert foot[0] > 0.5  # the raised foot is ~1 m off ...
+        # ... and found again once the foreground has stayed unexplained for `hidden_search_frames` frames
+        assert max(foot[DEFAULT.hidden_search_frames:]) < 0.2, foot
+        assert max(foot[8:]) < 0.12, foot  # (left ankle, heel, toe)
+        n_init, foot = run(0.0, seed)
+        assert n_init == 0 and min(foot) > 0.5, foot  # without the search nothing brings it back
+
+
+def test_hidden_leg_search_redraws_only_that_leg_and_keeps_constraints(seq) -> None:  # noqa: ANN001
+    L = lm.StateLayout
+    tr = LegTracker(preset("default", n_particles=200, hidden_search_share=0.25), KINECT, rng=np.random.default_rng(0))
+    _run(tr, seq.frames[:2])
+    assert tr.particles is not None
+    x = tr.particles.copy()
+    out = tr._search_hidden_leg(x, 1)
+    changed = np.any(out != x, axis=1)
+    assert 0.15 * 200 <= changed.sum() <= 0.25 * 200  # the share, less draws that found no valid pose
+    keep = np.ones(lm.STATE_DIM, dtype=bool)
+    keep[L.RIGHT] = False
+    keep[L.ROOT_Z] = False
+    assert np.array_equal(out[:, keep], x[:, keep])  # pelvis, shape and the other leg untouched
+    assert np.all(np.abs(out[:, L.ROOT_Z] - x[:, L.ROOT_Z]) < 0.02)  # the other foot stays on the floor
+    assert not lm.constraint_violations(out).any()
+    spread = out[changed][:, L.RIGHT.start + L.HIP_FLEX]
+    assert np.ptp(spread) > 0.8  # drawn across the walking range, not diffused
+    # the same generator state gives the same draws
+    tr2 = LegTracker(preset("default", n_particles=200, hidden_search_share=0.25), KINECT, rng=np.random.default_rng(0))
+    _run(tr2, seq.frames[:2])
+    assert np.array_equal(tr2._search_hidden_leg(x, 1), out)
+
+
+@pytest.mark.parametrize("damping", [0.0, 0.5, 1.0])
+def test_a_hidden_leg_keeps_only_part_of_its_velocity(seq, damping: float) -> None:  # noqa: ANN001
+    """The constant-velocity prediction (eq. 3) of a leg whose calf and foot are HIDDEN is scaled by
+    ``hidden_velocity_damping``; the visible leg keeps ``velocity_damping`` x its velocity."""
+    L = lm.StateLayout
+    cfg = preset("default", n_particles=32, init_rounds=2, hidden_search_share=0.0, hidden_velocity_damping=damping)
+    tr = LegTracker(cfg, KINECT, rng=np.random.default_rng(0))
+    _run(tr, seq.frames[:3])
+    assert tr.particles is not None
+    x = np.repeat(tr.particles[:1], 32, axis=0)  # one state: resampling cannot change it
+    knees = [L.LEFT.start + L.KNEE_FLEX, L.RIGHT.start + L.KNEE_FLEX]
+    x[:, knees] = 0.3
+    tr._x, tr._x_prev = x.copy(), x.copy()
+    tr._x_prev[:, knees] -= 0.05  # both knees flexing by 0.05 rad per frame
+    tr._logw = np.zeros(32)
+    tr._hidden.hidden[:] = False
+    tr._hidden.hidden[0, 1:] = True  # the left calf and foot are hidden
+    seen: list[np.ndarray] = []
+    stages = tr._run_stages
+    tr._run_stages = lambda frame, xp, **kw: (seen.append(xp.copy()), stages(frame, xp, **kw))[1]  # type: ignore[method-assign]
+    f = seq.frames[3]
+    tr.update(stamp=f.stamp, points=f.points, depth_fg=f.depth, floor=f.floor)
+    pred = seen[0]
+    assert np.allclose(pred[:, knees[0]], 0.3 + 0.05 * cfg.velocity_damping * damping)
+    assert np.allclose(pred[:, knees[1]], 0.3 + 0.05 * cfg.velocity_damping)
 
 
 def test_track_survives_a_brief_dropout(seq) -> None:  # noqa: ANN001

@@ -49,7 +49,15 @@ lives in the floor-aligned *body* frame of :mod:`walker_gait.core.leg_model`):
    depth with the observed depth, a VISIBLE/HIDDEN state machine per segment (seed 003
    fig. 7); hidden segments are left out of ``d_MF`` (carried by the dynamics) and, when a
    segment re-appears, its leg is searched with ``reappear_noise_gain`` × noise for
-   ``reappear_frames`` frames;
+   ``reappear_frames`` frames.  A leg can also stay "hidden" at a wrong position: behind the other
+   leg, where nothing can contradict it, while its real counterpart swings past in front (narrow
+   gait); so while a leg's calf and foot are HIDDEN and the estimate leaves more than
+   ``hidden_search_unexplained`` of the foreground unexplained, ``hidden_search_share`` of the
+   particles draw that leg afresh from a wide range of poses before the stages weigh them
+   (for ``hidden_search_frames`` frames in a row), and such a leg keeps only
+   ``hidden_velocity_damping`` of its joint-angle velocity (``default``: none, it holds its pose): the
+   velocity of its last seen frames, carried on through a hidden stance, ran the model foot 20-50 cm past
+   the real one, which by then was swinging forward;
 7. status/confidence from the foreground support of the estimate; a lost track
    (confidence < ``lost_confidence`` for ``lost_frames`` frames) re-initialises, and so does
    a track that leaves foreground unexplained (less than ``min_explained`` of it within
@@ -148,6 +156,10 @@ class TrackerConfig:
     show_above: float = 0.5  # visible fraction over which a HIDDEN segment is VISIBLE again
     reappear_noise_gain: float = 2.0  # noise gain on a leg whose segment re-appeared
     reappear_frames: int = 5  # frames the gain lasts
+    hidden_search_share: float = 0.0  # share of the particles whose hidden leg (calf and foot HIDDEN) is drawn afresh from a wide range of poses while the estimate leaves more than `hidden_search_unexplained` of the foreground unexplained (0 = off, paper)
+    hidden_search_unexplained: float = 0.2  # unexplained foreground share that starts that search ...
+    hidden_search_frames: int = 3  # ... once it has lasted this many frames in a row
+    hidden_velocity_damping: float = 1.0  # factor on the joint-angle velocity of a leg whose calf and foot are HIDDEN, on top of `velocity_damping` (1 = as any leg, paper; 0 = hold its pose)
     # sampling
     partitioned: bool = False  # root -> left leg -> right leg partitions
     n_layers: int = 1  # annealing layers per partition
@@ -201,6 +213,13 @@ class TrackerConfig:
             raise ValueError("anneal_betas needs one entry per layer")
         if self.cue2d_stride < 1:
             raise ValueError("cue2d_stride must be >= 1")
+        if not (0.0 <= self.hidden_search_share <= 1.0 and 0.0 <= self.hidden_search_unexplained < 1.0):
+            raise ValueError("hidden_search_share must be in [0, 1] and hidden_search_unexplained in [0, 1), got "
+                             f"{self.hidden_search_share}, {self.hidden_search_unexplained}")
+        if self.hidden_search_frames < 1:
+            raise ValueError(f"hidden_search_frames must be >= 1, got {self.hidden_search_frames}")
+        if not 0.0 <= self.hidden_velocity_damping <= 1.0:
+            raise ValueError(f"hidden_velocity_damping must be in [0, 1], got {self.hidden_velocity_damping}")
         if len(self.pelvis_prior_sigma) != 2 or not all(v > 0 for v in self.pelvis_prior_sigma):
             raise ValueError(f"pelvis_prior_sigma must be two positive values (forward, lateral), got {self.pelvis_prior_sigma}")
         if not (self.foot_roll_prior_sigma > 0 and self.foot_pitch_prior_sigma > 0 and self.feet_crossing_sigma > 0):
@@ -264,6 +283,8 @@ DEFAULT = TrackerConfig(
     init_rounds=6,
     min_explained=0.75,
     lost_leg_frames=6,
+    hidden_search_share=0.25,
+    hidden_velocity_damping=0.0,
     coast_frames=15,
     presence_height=0.40,
     fine_2d_only=True,
@@ -390,6 +411,7 @@ class LegTracker:
         self._low_conf = 0
         self._unsupported_run = np.zeros(2, dtype=int)  # consecutive frames each leg's lower segments lay over nothing
         self._frames_tracked = 0
+        self._unexplained_run = 0  # frames in a row whose estimate left `hidden_search_unexplained` of the foreground unexplained
         self._hidden = _HiddenState()
         self.status = TrackStatus.NO_USER
         self._coasted = 0
@@ -463,6 +485,7 @@ class LegTracker:
             self._logw = self._evaluate(frame, self._x, legs=(0, 1), ref=None)
         self._last_ll = None
         pose, conf, explained, unsupported = self._estimate(frame, stamp)
+        self._unexplained_run = self._unexplained_run + 1 if 1.0 - explained > cfg.hidden_search_unexplained else 0
         # track management
         self._unsupported_run = np.where(unsupported, self._unsupported_run + 1, 0)
         leg_lost = cfg.lost_leg_frames > 0 and bool(np.any(self._unsupported_run >= cfg.lost_leg_frames))
@@ -746,8 +769,16 @@ class LegTracker:
         prev = self._x_prev[idx] if self._x_prev is not None else x.copy()
         # constant velocity on joint angles (eq. 3)
         vel = np.where(self._angle_mask, x - prev, 0.0) * cfg.velocity_damping
+        if cfg.hidden_velocity_damping != 1.0:
+            for side in (0, 1):
+                if self._hidden.hidden[side, 1:].all():
+                    vel[:, L.leg(side)] *= cfg.hidden_velocity_damping
         self._x_prev = x.copy()
         x_pred, _, _ = lm.enforce_constraints(x + vel, fallback=x)
+        if cfg.hidden_search_share > 0 and self._unexplained_run >= cfg.hidden_search_frames:
+            for side in (0, 1):
+                if self._hidden.hidden[side, 1:].all() and not self._hidden.hidden[1 - side, 1:].all():
+                    x_pred = self._search_hidden_leg(x_pred, side)
         gain = self._leg_gain()
         if cfg.partitioned or cfg.n_layers > 1:
             x = self._run_stages(frame, x_pred, gain=gain, layers=cfg.n_layers, betas=cfg.anneal_betas, final=True)
@@ -755,6 +786,47 @@ class LegTracker:
             x, _ = self._diffuse(x_pred, np.ones(lm.STATE_DIM, dtype=bool), gain)
         self._x = x
         self._hidden.boost = np.maximum(self._hidden.boost - 1, 0)
+
+    def _search_hidden_leg(self, x: FloatArray, side: int, *, tries: int = 4) -> FloatArray:
+        """``x`` with the leg ``side`` of a share of the particles drawn from a wide range of poses.
+
+        A leg whose calf and foot are HIDDEN is out of ``d_MF`` and held only by the dynamics; where the
+        estimate leaves foreground unexplained, that leg is more likely there than behind the other one (a back
+        leg that stayed behind while its real counterpart swung past, seed 003 §III-D's wide search started by
+        the data instead of by the model's own visibility, which stays low at a wrong position).  Hip flexion
+        and knee flexion are drawn across their walking range, abduction, rotation and the ankle near the
+        particle's own; a draw that would lift the other foot off the floor (the drawn leg reaching below it)
+        is tried again up to ``tries`` times, else the particle keeps its leg.  The drawn particles start
+        with no velocity; the stages' annealing then weighs them against the rest.
+        """
+        cfg = self.config
+        p = x.shape[0]
+        n = int(round(cfg.hidden_search_share * p))
+        if n == 0:
+            return x
+        rows = self.rng.choice(p, size=n, replace=False)
+        leg = L.leg(side)
+        cand = np.repeat(x[rows], tries, axis=0)
+        m = cand.shape[0]
+        blk = cand[:, leg]
+        blk[:, L.HIP_FLEX] = self.rng.uniform(-0.5, 0.9, m)
+        blk[:, L.HIP_ABD] += 0.05 * self.rng.standard_normal(m)
+        blk[:, L.HIP_ROT] += 0.1 * self.rng.standard_normal(m)
+        blk[:, L.KNEE_FLEX] = self.rng.uniform(0.0, 1.3, m)
+        blk[:, L.ANKLE_FLEX] = 0.25 * self.rng.standard_normal(m)
+        blk[:, L.ANKLE_INV] = 0.05 * self.rng.standard_normal(m)
+        cand[:, leg] = blk
+        new, _, bad = lm.enforce_constraints(cand)
+        ok = ~bad & (np.abs(new[:, L.ROOT_Z] - cand[:, L.ROOT_Z]) < 0.02)
+        ok = ok.reshape(n, tries)
+        first = np.argmax(ok, axis=1)
+        found = ok[np.arange(n), first]
+        out = x.copy()
+        pick = new.reshape(n, tries, -1)[np.arange(n), first]
+        out[rows[found]] = pick[found]
+        if self._x_prev is not None:
+            self._x_prev[rows[found]] = pick[found]
+        return out
 
     # -- initialisation -----------------------------------------------------------
     def _detect(self, frame: _Frame) -> FloatArray:
