@@ -301,6 +301,21 @@ def _raise_left_leg(tr: LegTracker) -> None:
     tr._x_prev = tr._x.copy()
 
 
+def _raised_left_leg_run(seq, seed: int, **overrides: object) -> tuple[int, list[float]]:  # noqa: ANN001
+    """Track 8 frames, raise the left leg (:func:`_raise_left_leg`), track 16 more with ``min_explained`` off:
+    the number of re-initialisations and the left foot's error (ankle, heel, toe; m) per later frame."""
+    cfg = preset("default", n_particles=64, init_rounds=4, min_explained=0.0, **overrides)
+    tr = LegTracker(cfg, KINECT, rng=np.random.default_rng(seed))
+    _run(tr, seq.frames[:8])
+    _raise_left_leg(tr)
+    inits: list[int] = []
+    search = tr._initialise
+    tr._initialise = lambda frame: (inits.append(1), search(frame))[1]  # type: ignore[method-assign]
+    poses = _run(tr, seq.frames[8:24])
+    foot = [float(np.linalg.norm(p.points[0, 2:] - f.gt[0, 2:], axis=-1).mean()) for p, f in zip(poses, seq.frames[8:24])]
+    return len(inits), foot
+
+
 def test_reinitialises_when_a_leg_leaves_the_data(seq) -> None:  # noqa: ANN001
     """A model leg pushed out of the view (here: every particle's left hip flexed to its limit, the leg
     raised above the image) is not hidden, it is lost: with ``lost_leg_frames`` the track re-initialises
@@ -309,17 +324,7 @@ def test_reinitialises_when_a_leg_leaves_the_data(seq) -> None:  # noqa: ANN001
     and so is the search for hidden legs (``hidden_search_share``, which would find it too)."""
 
     def run(lost_leg_frames: int, seed: int) -> tuple[int, list[float]]:
-        cfg = preset("default", n_particles=64, init_rounds=4, min_explained=0.0, lost_leg_frames=lost_leg_frames,
-                     hidden_search_share=0.0)
-        tr = LegTracker(cfg, KINECT, rng=np.random.default_rng(seed))
-        _run(tr, seq.frames[:8])
-        _raise_left_leg(tr)
-        inits: list[int] = []
-        search = tr._initialise
-        tr._initialise = lambda frame: (inits.append(1), search(frame))[1]  # type: ignore[method-assign]
-        poses = _run(tr, seq.frames[8:24])
-        foot = [float(np.linalg.norm(p.points[0, 2:] - f.gt[0, 2:], axis=-1).mean()) for p, f in zip(poses, seq.frames[8:24])]
-        return len(inits), foot
+        return _raised_left_leg_run(seq, seed, lost_leg_frames=lost_leg_frames, hidden_search_share=0.0)
 
     for seed in (0, 1):
         n_init, foot = run(6, seed)
@@ -337,17 +342,7 @@ def test_a_hidden_leg_is_searched_for_where_foreground_is_unexplained(seq) -> No
     (``min_explained``, ``lost_leg_frames``) so that this rule alone acts."""
 
     def run(share: float, seed: int) -> tuple[int, list[float]]:
-        cfg = preset("default", n_particles=64, init_rounds=4, min_explained=0.0, lost_leg_frames=0,
-                     hidden_search_share=share)
-        tr = LegTracker(cfg, KINECT, rng=np.random.default_rng(seed))
-        _run(tr, seq.frames[:8])
-        _raise_left_leg(tr)
-        inits: list[int] = []
-        search = tr._initialise
-        tr._initialise = lambda frame: (inits.append(1), search(frame))[1]  # type: ignore[method-assign]
-        poses = _run(tr, seq.frames[8:24])
-        foot = [float(np.linalg.norm(p.points[0, 2:] - f.gt[0, 2:], axis=-1).mean()) for p, f in zip(poses, seq.frames[8:24])]
-        return len(inits), foot
+        return _raised_left_leg_run(seq, seed, lost_leg_frames=0, hidden_search_share=share)
 
     assert DEFAULT.hidden_search_share > 0
     for seed in (0, 1):
