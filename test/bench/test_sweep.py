@@ -96,6 +96,32 @@ def test_summarise_hand_built_errors() -> None:
     assert sweep.summarise([r])["frames_over_10cm_pct"] == pytest.approx(100 / 60)
 
 
+def test_summary_errors_compare_the_session_cadence_and_speed_with_the_truth() -> None:
+    """Cadence and gait speed of the session summary (the analyzer's confidence cuts) against the true steps'; a
+    session without a walking step detected misses its figures (100 %)."""
+    def steps(times: list[float], *, length: float, conf: list[float] | None = None) -> list[Step]:
+        out = []
+        for k, t in enumerate(times):
+            st = t - times[k - 1] if k else math.nan
+            out.append(replace(_step(t, k % 2, length, 0.1), step_time=st, confidence=1.0 if conf is None else conf[k]))
+        return out
+
+    r = _run()
+    r.gt = steps([0.6 * k for k in range(8)], length=0.5)  # 100 steps/min, 0.5 m per 0.6 s
+    r.det = steps([0.5 * k for k in range(8)], length=0.5)  # 120 steps/min, 1 m/s
+    e = sweep.summarise([r])
+    assert e["cadence_abs_err_pct"] == pytest.approx(20.0) and e["speed_abs_err_pct"] == pytest.approx(20.0)
+    # a doubted step (0.25 <= confidence < 0.5) keeps its time in the cadence, not its length in the speed
+    r.det = steps([0.6 * k for k in range(8)], length=0.5, conf=[1.0] * 4 + [0.3] + [1.0] * 3)
+    r.det[4] = replace(r.det[4], step_length=1.0)
+    e = sweep.summarise([r])
+    assert e["cadence_abs_err_pct"] == pytest.approx(0.0, abs=1e-9) and e["speed_abs_err_pct"] == pytest.approx(0.0, abs=1e-9)
+    r.det, r.pairs = [], []
+    e = sweep.summarise([r])
+    assert e["cadence_abs_err_pct"] == 100.0 and e["speed_abs_err_pct"] == 100.0
+    assert "| cadence abs err % | 100.00 |" in sweep.format_table({"x": {"per_tracker_seed": {0: e}}})
+
+
 def test_report_pools_per_seed_and_scenario() -> None:
     rep = sweep.report([_run(0), _run(1)])
     assert set(rep["per_tracker_seed"]) == {"0", "1"} and set(rep["per_scenario"]) == {"normal"}
@@ -121,6 +147,11 @@ def test_reanalyse_runs_the_gait_analyzer_on_the_kept_poses(tmp_path: Path, caps
     again = sweep.reanalyse([run])[0]
     assert len(again.pairs) == len(sim.steps) == len(again.det) and run.det == []
     assert sweep.reanalyse([run], GaitConfig(min_swing_distance_m=5.0))[0].det == []  # no 5 m swings: no steps
+    # the oracle rows of a re-analysis use its analyzer configuration too
+    assert sweep.oracle([run], ())["matched_steps"] == len(sim.steps)
+    assert sweep.oracle([run], (), GaitConfig(min_swing_distance_m=5.0))["matched_steps"] == 0
+    oracle_rep = sweep.report([run], with_oracle=True, gait=GaitConfig(min_swing_distance_m=5.0))["oracle"]["0"]
+    assert all(v["matched_steps"] == 0 for v in oracle_rep.values())
     with pytest.raises(ValueError, match="no tracked poses"):
         sweep.reanalyse([replace(run, poses=[])])
     sweep.save_runs([run], tmp_path / "runs.pkl")

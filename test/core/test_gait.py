@@ -228,6 +228,41 @@ def test_landing_footprint_comes_from_its_toe() -> None:
     assert heel["step_length_mae"] > 0.012  # measured 0.018
 
 
+def test_summary_times_include_doubted_steps_so_heel_strike_errors_cancel() -> None:
+    """A step's time is its heel strike's, whatever the doubt on its footprint: the temporal statistics pool the
+    steps down to ``summary_min_time_confidence`` (0.25), the spatial ones from ``summary_min_confidence`` (0.5).
+    Heel strikes every 0.6 s, the fifth timed 0.1 s late (its step 0.7 s, the next 0.5 s) and doubted
+    (confidence 0.4, 20 cm too long): the late strike cancels in the cadence (100 steps/min exactly); left out
+    with its step, the next step's 0.5 s would raise it to 102.1.  A step below 0.25 (implausible geometry) is
+    left out of both."""
+    nan = math.nan
+    times = [0.6 * k for k in range(10)]
+    times[5] += 0.1
+    steps = [Step(stamp=t, side=Side(k % 2), index=k, step_length=0.5 + (0.2 if k == 5 else 0.0), step_width=0.1,
+                  step_time=t - times[k - 1] if k else nan, stride_length=nan, stride_time=nan, stance_time=nan,
+                  swing_time=nan, single_support_time=nan, double_support_time=nan,
+                  confidence=0.4 if k == 5 else 1.0) for k, t in enumerate(times)]
+    cfg = GaitConfig()
+    assert (cfg.summary_min_time_confidence, cfg.summary_min_confidence) == (0.25, 0.5)
+    s = summarize_steps(steps, min_confidence=0.5, min_time_confidence=0.25)
+    assert s.cadence == pytest.approx(100.0) and s.step_time_mean == pytest.approx(0.6)
+    assert s.step_length_mean == pytest.approx(0.5)  # the doubted step's length is not pooled
+    assert s.gait_speed == pytest.approx(sum(0.5 for k in range(1, 10) if k != 5) / sum(
+        times[k] - times[k - 1] for k in range(1, 10) if k != 5))
+    old = summarize_steps(steps, min_confidence=0.5)  # time cut = spatial cut
+    assert old.cadence == pytest.approx(60.0 / ((0.6 * 7 + 0.5) / 8))  # 102.1
+    steps[5] = replace(steps[5], confidence=0.2)
+    assert summarize_steps(steps, min_confidence=0.5, min_time_confidence=0.25).cadence == pytest.approx(old.cadence)
+    # the analyzer's summary uses both cuts
+    ga = GaitAnalyzer(GaitConfig())
+    ga._steps = [replace(st, confidence=0.4 if k == 5 else 1.0) for k, st in enumerate(steps)]
+    assert ga.summary().cadence == pytest.approx(100.0)
+    for bad in ({"summary_min_time_confidence": 0.6}, {"summary_min_time_confidence": -0.1},
+                {"summary_min_confidence": 1.5, "summary_min_time_confidence": 0.5}):
+        with pytest.raises(GaitInputError):
+            GaitConfig(**bad)
+
+
 def test_a_step_whose_landing_foot_was_not_seen_is_doubted() -> None:
     """The tracker places a foot it does not see by its motion model; a step whose landing foot was hidden from
     just before its heel strike to 0.2 s after it (the frames that time the strike and place the footprint) gets

@@ -241,6 +241,25 @@ def _step_errors(runs: list[SessionRun]) -> dict[str, float]:
     return out
 
 
+def _summary_errors(runs: list[SessionRun]) -> dict[str, float]:
+    """Mean over the runs of the absolute cadence and gait speed errors (%) of the session summary a clinician
+    reads (``summarize_steps`` of the detected steps with the analyzer's confidence cuts) against the same summary
+    of the true steps."""
+    from walker_gait.core.gait import GaitConfig, summarize_steps
+
+    cfg = GaitConfig()
+    errs: dict[str, list[float]] = {"cadence": [], "speed": []}
+    for r in runs:
+        true = summarize_steps(r.gt, max_step_time_s=cfg.max_step_time_s)
+        det = summarize_steps(r.det, max_step_time_s=cfg.max_step_time_s, min_confidence=cfg.summary_min_confidence,
+                              min_time_confidence=cfg.summary_min_time_confidence)
+        for name, t, d in (("cadence", true.cadence, det.cadence), ("speed", true.gait_speed, det.gait_speed)):
+            if math.isfinite(t) and t > 0:
+                # a session without a detected walking step misses its figure entirely: 100 %
+                errs[name].append(100.0 * abs(d - t) / t if math.isfinite(d) else 100.0)
+    return {f"{name}_abs_err_pct": float(np.mean(e)) if e else math.nan for name, e in errs.items()}
+
+
 def _trailing_toe(runs: list[SessionRun]) -> dict[str, float]:
     """Progression error (cm, + = ahead) of the other foot's toe at each matched true heel strike."""
     errs = []
@@ -298,13 +317,15 @@ def summarise(runs: list[SessionRun]) -> dict[str, Any]:
                recall=matched / gt if gt else math.nan,
                recall_in_view=matched_in_view / in_view if in_view else math.nan)
     out.update(_step_errors(runs))
+    out.update(_summary_errors(runs))
     out.update(_trailing_toe(runs))
     out["tracker_ms"] = float(np.nanmean([r.tracker_ms for r in runs])) if runs else math.nan
     return out
 
 
-def oracle(runs: list[SessionRun], points: tuple[int, ...]) -> dict[str, float]:
-    """Step figures of the gait analyzer fed the tracked poses with the true ``points`` substituted.
+def oracle(runs: list[SessionRun], points: tuple[int, ...], gait: GaitConfig | None = None) -> dict[str, float]:
+    """Step figures of the gait analyzer (``GaitConfig`` ``gait``, default: the pipeline's) fed the tracked poses
+    with the true ``points`` substituted.
 
     The analyzer gets the true floor and every frame with an estimate at full confidence, so ``points=()``
     differs a little from the pipeline's own steps (estimated floor, tracker confidences).  The tracker's foot
@@ -324,14 +345,15 @@ def oracle(runs: list[SessionRun], points: tuple[int, ...]) -> dict[str, float]:
                                  visibility=vis))
         floor = FloorPlane(normal=r.floor_normal, offset=r.floor_offset, rms=0.0, inlier_ratio=1.0, valid=True)
         subs.append(replace(r, poses=poses, floors=[floor] * len(poses)))
-    subs = reanalyse(subs)
+    subs = reanalyse(subs, gait)
     out = {"matched_steps": float(sum(len(s.pairs) for s in subs))}
     out.update(_step_errors(subs))
     return out
 
 
-def report(runs: list[SessionRun], *, with_oracle: bool = False) -> dict[str, Any]:
-    """``summary.json`` content: per tracker seed, and per scenario (tracker seeds pooled)."""
+def report(runs: list[SessionRun], *, with_oracle: bool = False, gait: GaitConfig | None = None) -> dict[str, Any]:
+    """``summary.json`` content: per tracker seed, and per scenario (tracker seeds pooled); the oracle rows use the
+    analyzer configuration ``gait`` (that of a re-analysis)."""
     seeds = sorted({r.tracker_seed for r in runs})
     out: dict[str, Any] = {"per_tracker_seed": {str(s): summarise([r for r in runs if r.tracker_seed == s]) for s in seeds}}
     out["per_scenario"] = {}
@@ -341,9 +363,10 @@ def report(runs: list[SessionRun], *, with_oracle: bool = False) -> dict[str, An
         out["per_scenario"][sc] = {k: s[k] for k in ("joint_err_cm", "frames_over_10cm_pct", "matched_steps", "gt_steps",
                                                      "step_length_mae_cm", "step_length_bias_cm", "step_width_mae_cm",
                                                      "confident_share", "step_length_mae_confident_cm",
+                                                     "cadence_abs_err_pct", "speed_abs_err_pct",
                                                      "trailing_toe_median_cm")}
     if with_oracle:
-        out["oracle"] = {str(s): {name: oracle([r for r in runs if r.tracker_seed == s], pts)
+        out["oracle"] = {str(s): {name: oracle([r for r in runs if r.tracker_seed == s], pts, gait)
                                   for name, pts in (("none", ()), *ORACLE_POINTS.items())} for s in seeds}
     return out
 
@@ -359,6 +382,7 @@ _ROWS = (("heel err cm", ("joint_err_cm", "heel")), ("toe err cm", ("joint_err_c
          ("confident steps share", ("confident_share",)),
          ("confident: length MAE cm", ("step_length_mae_confident_cm",)),
          ("confident: width MAE cm", ("step_width_mae_confident_cm",)),
+         ("cadence abs err %", ("cadence_abs_err_pct",)), ("gait speed abs err %", ("speed_abs_err_pct",)),
          ("trailing toe median cm", ("trailing_toe_median_cm",)), ("tracker ms/frame", ("tracker_ms",)))
 
 
@@ -461,9 +485,10 @@ def main(argv: list[str] | None = None) -> int:
     return 0
 
 
-def _write(out: Path, runs: list[SessionRun], config: dict[str, Any], *, with_oracle: bool) -> None:
+def _write(out: Path, runs: list[SessionRun], config: dict[str, Any], *, with_oracle: bool,
+           gait: GaitConfig | None = None) -> None:
     """``summary.json``, ``table.md`` and ``runs.pkl`` into ``out``; the table also to stdout."""
-    rep = report(runs, with_oracle=with_oracle)
+    rep = report(runs, with_oracle=with_oracle, gait=gait)
     rep["config"] = config
     out.mkdir(parents=True, exist_ok=True)
     table = format_table({out.name: rep})
@@ -494,7 +519,7 @@ def _reanalyse_main(a: argparse.Namespace) -> int:
         print(f"sweep: cannot re-analyse {src}: {exc}", file=sys.stderr)
         return 2
     config = {"reanalysed": str(a.reanalyse), "gait_override": override, "seconds": round(time.perf_counter() - t0, 1)}
-    _write(a.out, runs, config, with_oracle=a.oracle)
+    _write(a.out, runs, config, with_oracle=a.oracle, gait=gait)
     print(f"[sweep] re-analysed {len(runs)} runs of {src} -> {a.out}", file=sys.stderr)
     return 0
 
