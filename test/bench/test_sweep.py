@@ -79,6 +79,7 @@ def test_summarise_hand_built_errors() -> None:
     # every detected step is confident (Step's default confidence 1.0): the confident figures are the same
     assert s["confident_share"] == 1.0 and s["step_length_mae_confident_cm"] == pytest.approx(1.0)
     assert s["step_width_mae_confident_cm"] == pytest.approx(3.0)
+    assert s["hs_timing_median_abs_frames"] == pytest.approx((0.3 + 0.6) / 2)  # strikes 10 and 20 ms late at 30 Hz
     # a step the analyzer doubts is left out of the confident figures only
     r = _run()
     r.det[1] = replace(r.det[1], step_length=0.35, confidence=0.2)  # 20 cm short

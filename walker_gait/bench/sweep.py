@@ -238,6 +238,10 @@ def _step_errors(runs: list[SessionRun]) -> dict[str, float]:
     for name, e in (("length", length[sure]), ("width", width[sure & has_w])):
         out[f"step_{name}_mae_confident_cm"] = float(np.mean(np.abs(e))) if e.size else math.nan
     out["confident_share"] = float(sure.mean()) if sure.size else math.nan
+    # heel-strike timing of the matched steps (a step's stamp is its heel strike), in frames of each run
+    frames = np.array([(r.det[j].stamp - r.gt[t].stamp) / float(np.median(np.diff(r.stamps)))
+                       for r in runs if r.stamps.size > 1 for t, j in r.pairs])
+    out["hs_timing_median_abs_frames"] = float(np.median(np.abs(frames))) if frames.size else math.nan
     return out
 
 
@@ -382,6 +386,7 @@ _ROWS = (("heel err cm", ("joint_err_cm", "heel")), ("toe err cm", ("joint_err_c
          ("confident steps share", ("confident_share",)),
          ("confident: length MAE cm", ("step_length_mae_confident_cm",)),
          ("confident: width MAE cm", ("step_width_mae_confident_cm",)),
+         ("HS timing median abs err frames", ("hs_timing_median_abs_frames",)),
          ("cadence abs err %", ("cadence_abs_err_pct",)), ("gait speed abs err %", ("speed_abs_err_pct",)),
          ("trailing toe median cm", ("trailing_toe_median_cm",)), ("tracker ms/frame", ("tracker_ms",)))
 
