@@ -70,7 +70,8 @@ def test_input_validation() -> None:
     with pytest.raises(GaitInputError):
         GaitConfig(rest_speed_mps=-1.0)
     for bad in ({"planted_fit_sigma_s": -0.1}, {"planted_fit_window_s": 0.0}, {"hs_height_weight": math.nan},
-                {"landing_toe_fit_s": -0.3}, {"landing_visibility": 1.5}, {"landing_visibility": math.nan}):
+                {"landing_toe_fit_s": -0.3}, {"landing_visibility": 1.5}, {"landing_visibility": math.nan},
+                {"hs_resume_distance_m": 0.0}, {"hs_resume_distance_m": math.nan}):
         with pytest.raises(GaitInputError, match=next(iter(bad))):
             GaitConfig(**bad)
     GaitConfig(planted_fit_sigma_s=0.0, hs_height_weight=0.0, landing_toe_fit_s=0.0, landing_visibility=0.0)  # 0 = off
@@ -91,6 +92,20 @@ def test_frame_quality_rule() -> None:
 
 
 # ---------------------------------------------------------------------------- accuracy
+
+
+def test_first_step_hovering_mid_swing_is_one_step() -> None:
+    """The synthetic ``slow_elderly`` subject's first step from standing hovers 2 cm above the floor for a few
+    frames mid-swing (heel nearly still relative to the other foot), then swings on.  The strike detected in the
+    hover is withdrawn when the heel moves on: one step, not two, on the exact leg points."""
+    from walker_gait.bench.gait import _synth_session
+
+    poses, floor, gt, events, fps = _synth_session("slow_elderly", rng=np.random.default_rng(0), noise_m=0.0)
+    r = evaluate_gait(gt, events, run_analyzer(poses, floor), fps=fps)
+    assert r["precision"] == 1.0 and r["recall"] == 1.0, (r["precision"], r["recall"])
+    off = evaluate_gait(gt, events, run_analyzer(poses, floor, config=GaitConfig(hs_resume_distance_m=math.inf)),
+                        fps=fps)
+    assert off["det_steps"] == r["det_steps"] + 1 and off["precision"] < 1.0
 
 
 @pytest.mark.parametrize("name", ["normal", "slow", "asymmetric"])

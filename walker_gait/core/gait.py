@@ -136,6 +136,11 @@ class GaitConfig:
     median error with 1 cm noise, 0: 1.4-1.6)."""
     hs_height_tol_m: float = 0.04
     """A heel strike needs the heel within this height (m) of its floor baseline."""
+    hs_resume_distance_m: float = 0.04
+    """A detected heel strike is withdrawn, and the swing goes on, when the heel advances more than this (m, along
+    the swing, relative to the other foot) within ``event_fit_post_s`` of the detection while nothing else
+    happened: a foot that hovers low mid-swing (a slow first step from standing) is not a footfall
+    (``inf`` = off)."""
     baseline_window_s: float = 10.0
     """History (s) used to estimate each point's floor-contact height (baseline)."""
     baseline_percentile: float = 25.0
@@ -226,6 +231,8 @@ class GaitConfig:
                             ("landing_toe_fit_s", self.landing_toe_fit_s)):
             if not (math.isfinite(value) and value >= 0):
                 raise GaitInputError(f"GaitConfig.{name} must be >= 0 and finite, got {value}")
+        if not self.hs_resume_distance_m > 0:
+            raise GaitInputError(f"GaitConfig.hs_resume_distance_m must be > 0 (inf = off), got {self.hs_resume_distance_m}")
         if self.progression_strides < 1:
             raise GaitInputError(f"GaitConfig.progression_strides must be >= 1, got {self.progression_strides}")
         if not 0 < self.baseline_percentile < 100:
@@ -376,6 +383,7 @@ class _PendingHS:
     t_det: float
     t_to: float  # toe-off time of this swing (NaN if unknown)
     direction: FloatArray  # (2,) unit horizontal swing direction (walker frame)
+    swing: dict[str, Any] = field(default_factory=dict)  # the swing's state at the detection, to resume it
 
 
 @dataclass
@@ -834,8 +842,14 @@ class GaitAnalyzer:
             or (other_lifted and low)
         ):
             d = self._track[k, a, _H] - self._swing_heel_anchor
+            swing = dict(
+                heel_anchor=self._swing_heel_anchor.copy(), start_t=self._swing_start_t, landed_t=self._landed_t[a],
+                anchor=self._anchor.copy(), rest_time=self._rest_time.copy(), o_sum=self._o_sum[a].copy(),
+                o_n=self._o_n[a], o_best=self._o_best[a],
+            )
             self._pending_hs.append(
-                _PendingHS(side=a, k_det=k, t_det=t, t_to=self._swing_to_t, direction=d / max(np.hypot(*d), 1e-9))
+                _PendingHS(side=a, k_det=k, t_det=t, t_to=self._swing_to_t, direction=d / max(np.hypot(*d), 1e-9),
+                           swing=swing)
             )
             self._state = GaitState.DOUBLE_SUPPORT
             self._landed_t[a] = t
@@ -968,6 +982,8 @@ class GaitAnalyzer:
         keep: list[_PendingHS] = []
         for p in self._pending_hs:
             if t_avail >= p.t_det + c.event_fit_post_s or before is not None or final:
+                if before is None and not final and self._resumed(p):
+                    continue
                 self._finish_hs(p)
             else:
                 keep.append(p)
@@ -984,6 +1000,43 @@ class GaitAnalyzer:
             else:
                 keep_s.append(ps)
         self._pending_steps = keep_s
+
+    def _resumed(self, p: _PendingHS) -> bool:
+        """True (and the swing resumed) when the heel of a heel strike that is still the last thing that happened
+        advanced more than ``hs_resume_distance_m`` along its swing within ``event_fit_post_s`` of the detection:
+        the foot hovered mid-swing (a slow or hesitant first step) and swings on, so the strike is withdrawn
+        before it is emitted."""
+        c = self.config
+        a = p.side
+        if not (math.isfinite(c.hs_resume_distance_m) and p.swing) or self._state != GaitState.DOUBLE_SUPPORT:
+            return False
+        if self._landed_t[a] != p.t_det or any(q is not p for q in self._pending_hs if q.t_det > p.t_det):
+            return False
+        hi = int(np.searchsorted(self._t[: self._next_proc], p.t_det + c.event_fit_post_s + 1e-9))
+        seg = self._track[p.k_det : hi, a]  # (n, heel / toe, xy)
+        ok = np.all(np.isfinite(seg[:, :, 0]), axis=1)
+        if not ok[0] or ok.sum() < 2:
+            return False
+        along = np.min((seg[ok] - seg[0]) @ p.direction, axis=1)  # the heel's or the toe's, whichever advanced less
+        tt = self._t[p.k_det : hi][ok]
+        # the whole foot still advancing at the end of the window: a tracked heel that catches up with a landed
+        # foot jumps a few centimetres and stops, a tracked foot pitching down moves its heel or its toe alone;
+        # a foot that swings on keeps moving
+        if float(np.max(along)) <= c.hs_resume_distance_m or not (
+            along[-1] - along[-2] > c.rest_speed_mps * (tt[-1] - tt[-2])
+        ):
+            return False
+        sw = p.swing
+        self._state = GaitState.SWING_LEFT if a == 0 else GaitState.SWING_RIGHT
+        self._swing_heel_anchor = sw["heel_anchor"]
+        self._swing_start_t = sw["start_t"]
+        self._landed_t[a] = sw["landed_t"]
+        self._anchor = sw["anchor"]
+        self._rest_time = sw["rest_time"]
+        self._o_sum[a] = sw["o_sum"]
+        self._o_n[a] = sw["o_n"]
+        self._o_best[a] = sw["o_best"]
+        return True
 
     def _finish_hs(self, p: _PendingHS) -> None:
         c = self.config
