@@ -278,6 +278,44 @@ def test_summary_times_include_doubted_steps_so_heel_strike_errors_cancel() -> N
             GaitConfig(**bad)
 
 
+def test_summary_skips_step_times_that_span_a_missed_footfall() -> None:
+    """Heel strikes every 0.6 s with steps 5 and 6 missed: the step detected after them spans three step times
+    (1.8 s, under ``max_step_time_s``) and would take the cadence from 100 to 84.2 steps/min.  It is more than
+    ``summary_max_step_time_ratio`` (1.8) times the median step time, so the summary skips it; so do the gait
+    speed and the analyzer's summary.  Asymmetric gait (0.5 / 0.7 s) keeps every step."""
+    nan = math.nan
+
+    def steps_at(times: list[float]) -> list[Step]:
+        return [Step(stamp=t, side=Side(k % 2), index=k, step_length=0.5, step_width=0.1,
+                     step_time=t - times[k - 1] if k else nan, stride_length=nan, stride_time=nan, stance_time=nan,
+                     swing_time=nan, single_support_time=nan, double_support_time=nan) for k, t in enumerate(times)]
+
+    times = [0.6 * k for k in range(12) if k not in (5, 6)]
+    steps = steps_at(times)
+    assert summarize_steps(steps).cadence == pytest.approx(60.0 * 9 / (0.6 * 11))  # 81.8: off
+    s = summarize_steps(steps, max_step_time_ratio=1.8)
+    assert s.cadence == pytest.approx(100.0) and s.gait_speed == pytest.approx(0.5 / 0.6)
+    ga = GaitAnalyzer(GaitConfig())
+    ga._steps = steps
+    assert ga.summary().cadence == pytest.approx(100.0)
+    asym = steps_at([k * 0.6 + (0.1 if k % 2 else 0.0) for k in range(12)])
+    assert summarize_steps(asym, max_step_time_ratio=1.8).cadence == pytest.approx(summarize_steps(asym).cadence)
+    for bad in (1.0, math.nan):
+        with pytest.raises(GaitInputError, match="summary_max_step_time_ratio"):
+            GaitConfig(summary_max_step_time_ratio=bad)
+
+
+def test_a_step_after_a_same_side_step_has_no_step_time() -> None:
+    """Session a160 (``absent_start``): the tracker's first steps after the user walks in include the same foot
+    twice in a row.  Such a step's time from the last opposite heel strike would span the missed footfall, so it
+    is NaN; every step after an opposite one has its time."""
+    poses, floors, _ = _tracked("a160")
+    steps = run_analyzer(poses, floors).steps
+    repeat = [b for a, b in zip(steps, steps[1:]) if a.side == b.side]
+    assert repeat and all(math.isnan(s.step_time) for s in repeat)
+    assert all(math.isfinite(b.step_time) for a, b in zip(steps, steps[1:]) if a.side != b.side)
+
+
 def test_a_step_whose_landing_foot_was_not_seen_is_doubted() -> None:
     """The tracker places a foot it does not see by its motion model; a step whose landing foot was hidden from
     just before its heel strike to 0.2 s after it (the frames that time the strike and place the footprint) gets

@@ -254,8 +254,9 @@ def _summary_errors(runs: list[SessionRun]) -> dict[str, float]:
     cfg = GaitConfig()
     errs: dict[str, list[float]] = {"cadence": [], "speed": []}
     for r in runs:
-        true = summarize_steps(r.gt, max_step_time_s=cfg.max_step_time_s)
+        true = summarize_steps(r.gt, max_step_time_s=cfg.max_step_time_s, max_step_time_ratio=cfg.summary_max_step_time_ratio)
         det = summarize_steps(r.det, max_step_time_s=cfg.max_step_time_s, min_confidence=cfg.summary_min_confidence,
+                              max_step_time_ratio=cfg.summary_max_step_time_ratio,
                               min_time_confidence=cfg.summary_min_time_confidence)
         for name, t, d in (("cadence", true.cadence, det.cadence), ("speed", true.gait_speed, det.gait_speed)):
             if math.isfinite(t) and t > 0:
