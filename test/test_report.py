@@ -5,7 +5,6 @@ from __future__ import annotations
 import base64
 import math
 import re
-import time
 from html.parser import HTMLParser
 from pathlib import Path
 
@@ -187,10 +186,9 @@ def session() -> tuple[list[Step], list[GaitEvent], list[LegPose], dict]:
 
 def test_full_report_is_valid_self_contained_html(tmp_path: Path, session) -> None:
     steps, events, poses, summary = session
-    start = time.perf_counter()
+    # its time is `make bench`'s (the `process` wall time includes the report), not a test's
     out = write_report(tmp_path / "report.html", steps=steps, events=events, poses=poses, summary=summary,
                        metadata=METADATA)
-    elapsed = time.perf_counter() - start
     assert out == tmp_path / "report.html"
     text, parser = _parse(out)
     assert text.startswith("<!DOCTYPE html>")
@@ -219,7 +217,6 @@ def test_full_report_is_valid_self_contained_html(tmp_path: Path, session) -> No
     assert table.count('<tr class="left">') + table.count('<tr class="right">') == len(steps)
     assert "No steps detected" not in text
     assert not list(tmp_path.glob(".*.tmp"))
-    assert elapsed < 3.0, f"report took {elapsed:.2f} s"
 
 
 def test_report_with_zero_steps_and_zero_poses(tmp_path: Path) -> None:
