@@ -137,10 +137,10 @@ class GaitConfig:
     hs_height_tol_m: float = 0.04
     """A heel strike needs the heel within this height (m) of its floor baseline."""
     hs_resume_distance_m: float = 0.04
-    """A detected heel strike is withdrawn, and the swing goes on, when the heel advances more than this (m, along
-    the swing, relative to the other foot) within ``event_fit_post_s`` of the detection while nothing else
-    happened: a foot that hovers low mid-swing (a slow first step from standing) is not a footfall
-    (``inf`` = off)."""
+    """A detected heel strike is withdrawn, and the swing goes on, when heel and toe both advance more than this (m,
+    along the swing, relative to the other foot) within ``event_fit_post_s`` of the detection and are still advancing
+    at its end, while nothing else happened: a foot that hovers low mid-swing (a slow first step from standing) is
+    not a footfall (``inf`` = off)."""
     baseline_window_s: float = 10.0
     """History (s) used to estimate each point's floor-contact height (baseline)."""
     baseline_percentile: float = 25.0
@@ -193,7 +193,7 @@ class GaitConfig:
     """The summary's temporal statistics and gait speed also skip steps whose time exceeds this multiple of the median
     step time of the steps in scope (at least 4 of them): a step time that long spans a footfall the analyzer did not
     detect, or a hesitation, not one step of walking.  Tracker poses of ``make sweep`` (sets C / A, tracker seeds 0 /
-    1): session cadence |error| 4.66 / 5.03 and 4.00 / 6.03 % -> 2.61 / 5.06 and 2.90 / 5.18 %, gait speed 10.3 / 8.4
+    1; off -> 1.8): session cadence |error| 4.66 / 5.03 and 4.00 / 6.03 % -> 2.61 / 5.06 and 2.90 / 5.18 %, gait speed 10.3 / 8.4
     and 8.1 / 9.6 % -> 8.4 / 7.9 and 7.2 / 7.4 % (1.6: 2.69 / 4.94, 3.15 / 7.13 %; inf = off)."""
     max_step_length_m: float = 1.2
     """A step longer than this (m) is physically implausible behind a walker: reported, but its
@@ -1012,10 +1012,10 @@ class GaitAnalyzer:
         self._pending_steps = keep_s
 
     def _resumed(self, p: _PendingHS) -> bool:
-        """True (and the swing resumed) when the heel of a heel strike that is still the last thing that happened
-        advanced more than ``hs_resume_distance_m`` along its swing within ``event_fit_post_s`` of the detection:
-        the foot hovered mid-swing (a slow or hesitant first step) and swings on, so the strike is withdrawn
-        before it is emitted."""
+        """True (and the swing resumed) when the foot of a heel strike that is still the last thing that happened
+        (heel and toe) advanced more than ``hs_resume_distance_m`` along its swing within ``event_fit_post_s`` of the
+        detection and still advances at the window's end: the foot hovered mid-swing (a slow or hesitant first
+        step) and swings on, so the strike is withdrawn before it is emitted."""
         c = self.config
         a = p.side
         if not (math.isfinite(c.hs_resume_distance_m) and p.swing) or self._state != GaitState.DOUBLE_SUPPORT:
