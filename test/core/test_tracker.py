@@ -13,6 +13,8 @@ from walker_gait.bench.tracker import KINECT, own_sequence
 from walker_gait.core import leg_model as lm
 from walker_gait.core.tracker import (
     DEFAULT,
+    HEEL_RISE_BEHIND,
+    HEEL_RISE_MAX,
     PAPER,
     LegTracker,
     TrackerConfig,
@@ -20,7 +22,7 @@ from walker_gait.core.tracker import (
     camera_segments,
     preset,
 )
-from walker_gait.core.types import HEEL, JOINT_NAMES, FloorPlane, TrackStatus
+from walker_gait.core.types import ANKLE, HEEL, JOINT_NAMES, FloorPlane, TrackStatus
 
 FAST = preset("default", n_particles=64, init_rounds=4)
 
@@ -45,7 +47,8 @@ def test_presets() -> None:
         preset("nope")
     for bad in ({"pelvis_prior_sigma": (0.1,)}, {"pelvis_prior_sigma": (0.1, 0.0)}, {"foot_roll_prior_sigma": -0.1},
                 {"feet_crossing_sigma": 0.0}, {"hidden_search_share": 1.5}, {"hidden_search_unexplained": 1.0},
-                {"hidden_search_frames": 0}, {"hidden_velocity_damping": -0.1}):
+                {"hidden_search_frames": 0}, {"hidden_velocity_damping": -0.1}, {"heel_rise_dorsiflexion": -0.1},
+                {"heel_rise_dorsiflexion": float("nan")}):
         with pytest.raises(ValueError):
             preset("default", **bad)
 
@@ -455,15 +458,19 @@ def test_detection_ignores_low_clutter_beside_the_legs() -> None:
     assert np.abs(found_hips[:, 1] - true_hips[:, 1]).max() < 0.03
 
 
-def _prior_term(seq, x: np.ndarray, legs: tuple[int, ...], **sigmas: float) -> np.ndarray:  # noqa: ANN001
-    """Log likelihood of states ``x`` (``legs`` evaluated) with the pose priors ``sigmas`` minus that without priors."""
+def _prior_term(seq, x: np.ndarray, legs: tuple[int, ...], *, hidden: np.ndarray | None = None,  # noqa: ANN001
+                **sigmas: float) -> np.ndarray:
+    """Log likelihood of states ``x`` (``legs`` evaluated) with the pose priors ``sigmas`` minus that without priors;
+    ``hidden``: the tracker's ``(2, 3)`` HIDDEN segments (default none)."""
     f = seq.frames[0]
 
     def loglik(**priors: float) -> np.ndarray:
         off = {"ankle_prior_sigma": np.inf, "foot_pitch_prior_sigma": np.inf, "foot_roll_prior_sigma": np.inf,
-               "pelvis_prior_sigma": (np.inf, np.inf), "feet_crossing_sigma": np.inf}
+               "pelvis_prior_sigma": (np.inf, np.inf), "feet_crossing_sigma": np.inf, "heel_rise_dorsiflexion": np.inf}
         cfg = preset("default", **{**off, **priors})
         tr = LegTracker(cfg, KINECT, rng=np.random.default_rng(0))
+        if hidden is not None:
+            tr._hidden.hidden[:] = hidden
         return tr._evaluate(tr._prepare(f.points, f.depth, f.floor), x, legs=legs, ref=None)
 
     return loglik(**sigmas) - loglik()
@@ -502,6 +509,46 @@ def test_foot_pitch_prior_adds_a_gaussian_on_the_pitch_of_each_foot(seq) -> None
     np.testing.assert_allclose(prior, [0.0, -0.5 * (0.4 / 0.25) ** 2, -0.5 * (0.2 / 0.25) ** 2], atol=1e-9)
     right_only = _prior_term(seq, x, (1,), foot_pitch_prior_sigma=0.25)
     np.testing.assert_allclose(right_only, [0.0, 0.0, 0.0], atol=1e-9)  # the left foot is not evaluated
+
+
+def test_foot_pitch_prior_expects_the_heel_to_rise_once_the_shank_leans_past_the_ankles_dorsiflexion(seq) -> None:  # noqa: ANN001
+    """With ``heel_rise_dorsiflexion`` D the pitch prior is centred heel-up by the shank's forward lean beyond D (a
+    stance foot's heel rises once the ankle is dorsiflexed that far): a trailing leg leaning 0.5 rad forward costs
+    -0.5 (D / sigma)^2 heel-up by its lean and -0.5 ((0.5 - D) / sigma)^2 held flat, where the prior centred on a
+    flat foot had it the other way round; a shank leaning less than D, or back (a landing foot), or a foot ahead of
+    the other one (``HEEL_RISE_BEHIND``), or a HIDDEN calf changes nothing; the expected rise stops at
+    ``HEEL_RISE_MAX``."""
+    assert PAPER.heel_rise_dorsiflexion == np.inf and np.isfinite(DEFAULT.heel_rise_dorsiflexion)
+    d, sigma = 0.2, 0.25
+    x = _standing(7)
+    left = lm.L.leg(0)
+    x[1, left.start + lm.L.HIP_FLEX] = -0.5  # trailing leg: shank 0.5 rad forward, ankle neutral: heel up by 0.5
+    x[2, left.start + lm.L.HIP_FLEX] = -0.5  # the same leg with the foot flat: ankle dorsiflexed 0.5
+    x[2, left.start + lm.L.ANKLE_FLEX] = 0.5
+    x[3, left.start + lm.L.HIP_FLEX] = -0.15  # shank 0.15 rad forward (< D), foot flat
+    x[3, left.start + lm.L.ANKLE_FLEX] = 0.15
+    x[4, left.start + lm.L.HIP_FLEX] = 0.4  # landing leg: shank 0.4 rad back, foot toe-up by 0.4
+    x[5, left.start + lm.L.HIP_FLEX] = -0.3  # shank 0.5 rad forward, foot heel-up by 0.5, but 15 cm ahead of the
+    x[5, left.start + lm.L.KNEE_FLEX] = 0.2  # other foot (a landing foot stood on its toes): no heel rise expected
+    x[5, lm.L.leg(1).start + lm.L.HIP_FLEX] = -0.6
+    x[6, left.start + lm.L.HIP_FLEX] = -0.5  # shank 0.9 rad forward (a foot leaving the floor leans less): the
+    x[6, left.start + lm.L.KNEE_FLEX] = 0.4  # expected heel rise stops at HEEL_RISE_MAX
+    x = lm.apply_floor_contact(x)
+    kin = lm.forward_kinematics(x)
+    assert kin.points[1, 0, ANKLE, 0] - kin.points[1, 1, ANKLE, 0] < -HEEL_RISE_BEHIND  # behind
+    assert kin.points[5, 0, ANKLE, 0] - kin.points[5, 1, ANKLE, 0] > 0.1  # ahead (body x: forward)
+    prior = _prior_term(seq, x, (0,), foot_pitch_prior_sigma=sigma, heel_rise_dorsiflexion=d)
+    expected = -0.5 * (np.array([0.0, d, 0.5 - d, 0.0, 0.4, 0.5, 0.9 - HEEL_RISE_MAX]) / sigma) ** 2
+    np.testing.assert_allclose(prior, expected, atol=1e-9)
+    flat_centre = _prior_term(seq, x, (0,), foot_pitch_prior_sigma=sigma)
+    np.testing.assert_allclose(flat_centre, -0.5 * (np.array([0.0, 0.5, 0.0, 0.0, 0.4, 0.5, 0.9]) / sigma) ** 2,
+                               atol=1e-9)
+    # a HIDDEN calf's lean is not measured: no heel rise expected from it
+    calf_hidden = np.zeros((2, 3), dtype=bool)
+    calf_hidden[0, 1] = True
+    hidden = _prior_term(seq, x, (0,), hidden=calf_hidden, foot_pitch_prior_sigma=sigma, heel_rise_dorsiflexion=d)
+    np.testing.assert_allclose(hidden, flat_centre, atol=1e-9)
+    assert prior[1] > prior[2] and flat_centre[1] < flat_centre[2]  # heel-up wins only with the rise expected
 
 
 def test_foot_roll_prior_adds_a_gaussian_on_the_sideways_tilt_of_each_foot(seq) -> None:  # noqa: ANN001

@@ -35,7 +35,11 @@ lives in the floor-aligned *body* frame of :mod:`walker_gait.core.leg_model`):
    foot's pitch against the floor (heel-to-toe line), ``foot_roll_prior_sigma`` (``default``) one on
    its sideways tilt (the sole's lateral axis against the floor), ``ankle_prior_sigma`` one on ankle flexion
    around neutral; the pitch prior also holds a planted foot flat when the shank leans forward
-   or back over it (late stance: hip extended, ankle dorsiflexed), where the ankle prior tilts it.
+   or back over it (mid stance: ankle dorsiflexed), where the ankle prior tilts it.  With
+   ``heel_rise_dorsiflexion`` D (``default``) its centre follows the heel rise of late stance: heel-up by the
+   shank's forward lean beyond D, the ankle's dorsiflexion in gait, up to ``HEEL_RISE_MAX``, for a foot behind
+   the other one whose calf is not HIDDEN (a prior centred on a flat foot held the trailing foot too flat in its
+   heel rise, its toe 2-3 cm ahead of the real one);
    ``feet_crossing_sigma`` (``default``) is a half-Gaussian against crossed feet: across the pelvis the
    left foot's centre lies left of the right foot's (no synthetic session's feet ever cross; tracked ones
    did in 3.5 % of the frames, up to 30 cm, and in half of those with left and right swapped);
@@ -111,6 +115,7 @@ from walker_gait.core.types import (
     ANKLE,
     HEEL,
     HIP,
+    KNEE,
     JOINT_NAMES,
     TOE,
     CameraIntrinsics,
@@ -122,6 +127,14 @@ from walker_gait.core.types import (
 FloatArray = NDArray[np.float64]
 BoolArray = NDArray[np.bool_]
 L = StateLayout
+
+HEEL_RISE_BEHIND = 0.05
+"""m: ``heel_rise_dorsiflexion`` applies in full to a foot whose ankle is this far or more behind the other ankle
+(along the foot), not at all to one level with it or ahead, linearly in between."""
+
+HEEL_RISE_MAX = 0.6
+"""rad: most heel-up pitch ``heel_rise_dorsiflexion`` expects (a foot about to leave the floor, ~35 deg): a shank
+leaning further is not standing on its foot (a hidden leg drawn afresh had its heel raised 30-40 cm for free)."""
 
 Cue = Literal["3d", "2d", "combined"]
 
@@ -185,6 +198,7 @@ class TrackerConfig:
     # pose prior
     ankle_prior_sigma: float = math.inf  # rad, Gaussian prior on ankle flexion around neutral (inf = none, paper)
     foot_pitch_prior_sigma: float = math.inf  # rad, Gaussian prior on each foot's pitch against the floor (inf = none, paper)
+    heel_rise_dorsiflexion: float = math.inf  # rad, ankle dorsiflexion past which the foot pitch prior expects the heel to rise: its centre is heel-up by the shank's forward lean beyond this (inf = centred on a flat foot)
     foot_roll_prior_sigma: float = math.inf  # rad, Gaussian prior on each foot's sideways tilt (sole roll) against the floor (inf = none, paper)
     feet_crossing_sigma: float = math.inf  # m, half-Gaussian prior against the left foot's centre (ankle, heel, toe) lying right of the right foot's, across the pelvis (inf = none, paper)
     pelvis_prior_sigma: tuple[float, float] = (math.inf, math.inf)  # m, Gaussian prior (forward, lateral) on the pelvis (mid-hip) over the centre of the feet (mean of heels and toes): the base of support (inf = none, paper)
@@ -222,6 +236,8 @@ class TrackerConfig:
             raise ValueError(f"hidden_velocity_damping must be in [0, 1], got {self.hidden_velocity_damping}")
         if len(self.pelvis_prior_sigma) != 2 or not all(v > 0 for v in self.pelvis_prior_sigma):
             raise ValueError(f"pelvis_prior_sigma must be two positive values (forward, lateral), got {self.pelvis_prior_sigma}")
+        if not self.heel_rise_dorsiflexion >= 0:
+            raise ValueError(f"heel_rise_dorsiflexion must be >= 0 (inf = off), got {self.heel_rise_dorsiflexion}")
         if not (self.foot_roll_prior_sigma > 0 and self.foot_pitch_prior_sigma > 0 and self.feet_crossing_sigma > 0):
             raise ValueError("foot_pitch_prior_sigma, foot_roll_prior_sigma and feet_crossing_sigma must be > 0 "
                              "(inf = no prior)")
@@ -290,6 +306,7 @@ DEFAULT = TrackerConfig(
     fine_2d_only=True,
     sigma_root=0.008,
     foot_pitch_prior_sigma=0.3,
+    heel_rise_dorsiflexion=0.175,
     foot_roll_prior_sigma=0.1,
     pelvis_prior_sigma=(0.12, 0.06),
     feet_crossing_sigma=0.03,
@@ -616,7 +633,24 @@ class LegTracker:
         if math.isfinite(cfg.foot_pitch_prior_sigma):
             for leg in legs:
                 v = kin.points[:, leg, TOE] - kin.points[:, leg, HEEL]  # heel -> toe, body frame (z up)
-                a = np.arctan2(v[:, 2], np.hypot(v[:, 0], v[:, 1])) / cfg.foot_pitch_prior_sigma
+                flat = np.hypot(v[:, 0], v[:, 1])
+                a = np.arctan2(v[:, 2], flat)  # toe-up pitch
+                if math.isfinite(cfg.heel_rise_dorsiflexion) and not self._hidden.hidden[leg, 1]:
+                    # late stance: the shank leans forward over the planted foot until the ankle reaches its
+                    # dorsiflexion in gait (~10 deg, Perry & Burnfield 2010), then the heel rises; held flat, the
+                    # heel-up foot slid forward along its hidden sole (the trailing toe ran 2-3 cm ahead).  Only a
+                    # foot behind the other one rises onto its toes (late stance, early swing): ahead of it, a
+                    # landing foot goes heel first, and the allowance let a forward-leaning model shank stand it
+                    # on its toes.  A HIDDEN calf's lean is not measured: the prior stays centred on a flat foot
+                    ankle = kin.points[:, leg, ANKLE]
+                    s = kin.points[:, leg, KNEE] - ankle
+                    fwd = (s[:, 0] * v[:, 0] + s[:, 1] * v[:, 1]) / np.maximum(flat, 1e-9)
+                    lean = np.arctan2(fwd, s[:, 2])
+                    o = kin.points[:, 1 - leg, ANKLE] - ankle
+                    behind = (o[:, 0] * v[:, 0] + o[:, 1] * v[:, 1]) / np.maximum(flat, 1e-9)
+                    gate = np.clip(behind / HEEL_RISE_BEHIND, 0.0, 1.0)
+                    a = a + gate * np.clip(lean - cfg.heel_rise_dorsiflexion, 0.0, HEEL_RISE_MAX)
+                a /= cfg.foot_pitch_prior_sigma
                 total -= 0.5 * a * a
         if math.isfinite(cfg.foot_roll_prior_sigma):
             # a sole rolled sideways stands on its edge with its heel-toe line off the floor; shoes stay
