@@ -40,9 +40,14 @@ def _run(seed: int = 0) -> sweep.SessionRun:
 
 def test_session_list() -> None:
     assert sweep.session_list(("normal", "occlusion"), 2, 100) == [("normal", 100), ("normal", 101),
-                                                                    ("occlusion", 110), ("occlusion", 111)]
+                                                                    ("occlusion", 130), ("occlusion", 131)]
+    # a subset sweep tracks the sessions the full sweep tracks
+    full = sweep.session_list(sweep.SCENARIOS, 3, 900)
+    assert sweep.session_list(("absent_start",), 3, 900) == [s for s in full if s[0] == "absent_start"]
     with pytest.raises(ValueError):
         sweep.session_list(("normal",), 11, 100)
+    with pytest.raises(ValueError, match="unknown scenario"):
+        sweep.session_list(("jogging",), 1, 100)
 
 
 def test_spec_overrides_parse_check_and_tag_the_cache(capsys: pytest.CaptureFixture[str]) -> None:

@@ -81,10 +81,15 @@ class SessionRun:
 
 
 def session_list(scenarios: tuple[str, ...], per_scenario: int, base_seed: int) -> list[tuple[str, int]]:
-    """``(scenario, session seed)``: seeds ``base_seed + 10 k + j`` for scenario ``k``, session ``j``."""
+    """``(scenario, session seed)``: seeds ``base_seed + 10 k + j`` for session ``j`` of scenario ``k`` of
+    ``SCENARIOS`` (its place there, not in ``scenarios``: a sweep over some scenarios tracks the same sessions as
+    the full sweep does)."""
     if per_scenario < 1 or per_scenario > 10:
         raise ValueError(f"per_scenario must be in 1..10, got {per_scenario}")
-    return [(sc, base_seed + 10 * k + j) for k, sc in enumerate(scenarios) for j in range(per_scenario)]
+    for sc in scenarios:
+        if sc not in SCENARIOS:
+            raise ValueError(f"unknown scenario {sc!r}; expected one of {SCENARIOS}")
+    return [(sc, base_seed + 10 * SCENARIOS.index(sc) + j) for sc in scenarios for j in range(per_scenario)]
 
 
 def spec_overrides(text: str) -> dict[str, Any]:
@@ -435,7 +440,7 @@ def main(argv: list[str] | None = None) -> int:
                          "'{\"body_scale\": [1.12, 1.2], \"cam_height\": [0.65, 0.75]}'); rendered separately in the cache")
     ap.add_argument("--scenarios", nargs="+", default=list(SCENARIOS), choices=SCENARIOS)
     ap.add_argument("--per-scenario", type=int, default=4, help="sessions per scenario (default 4)")
-    ap.add_argument("--base-seed", type=int, default=100, help="session seeds: base + 10 k + j (default 100; 500 = a second set)")
+    ap.add_argument("--base-seed", type=int, default=100, help="session seeds: base + 10 k + j for scenario k (its place in the full list) (default 100; 500 = a second set)")
     ap.add_argument("--tracker-seeds", type=int, nargs="+", default=[0, 1])
     ap.add_argument("--duration", type=float, default=8.0, help="s per session (absent_start: at least 14)")
     ap.add_argument("--cache", type=Path, default=Path("out/sweep/cache"), help="rendered sessions (reused)")
