@@ -40,6 +40,11 @@ lives in the floor-aligned *body* frame of :mod:`walker_gait.core.leg_model`):
    shank's forward lean beyond D, the ankle's dorsiflexion in gait, up to ``HEEL_RISE_MAX``, for a foot behind
    the other one whose calf is not HIDDEN (a prior centred on a flat foot held the trailing foot too flat in its
    heel rise, its toe 2-3 cm ahead of the real one);
+   ``footprint_sigma`` (measured, off in both presets) is a Gaussian on the toe of a HIDDEN foot that was planted when last seen,
+   around that footprint carried along by the floor's motion through the walker frame (measured from the
+   planted toes in view), until the foot leaves the floor unseen: ``footprint_release_s`` after the other foot
+   lands, at the latest ``footprint_max_s`` after it was last seen (``_Footprints``; held in its last pose, a
+   hidden stance foot travelled with the walker, its toe 10 cm ahead after 9-15 hidden frames);
    ``feet_crossing_sigma`` (``default``) is a half-Gaussian against crossed feet: across the pelvis the
    left foot's centre lies left of the right foot's (no synthetic session's feet ever cross; tracked ones
    did in 3.5 % of the frames, up to 30 cm, and in half of those with left and right swapped);
@@ -136,6 +141,19 @@ HEEL_RISE_MAX = 0.6
 """rad: most heel-up pitch ``heel_rise_dorsiflexion`` expects (a foot about to leave the floor, ~35 deg): a shank
 leaning further is not standing on its foot (a hidden leg drawn afresh had its heel raised 30-40 cm for free)."""
 
+FOOTPRINT_HEIGHT = 0.04
+"""m: a toe this low over the floor stands on it (``footprint_sigma``)."""
+
+FOOTPRINT_MAX_FORWARD = 0.3
+"""m/s: a foot in view with its toe on the floor but moving forward (body +x) faster than this is swinging."""
+
+_FOOTPRINT_SAMPLES = 6  # a hidden foot's footprint: the mean of its toe's last this many planted positions in view ...
+_FOOTPRINT_MIN_SAMPLES = 3  # ... of which it needs this many (a lagging estimate of a swinging foot can look planted for a frame)
+_FOOTPRINT_GATE = 0.2  # m: an unseen foot whose estimate is this far from its footprint has left it (or the footprint was wrong)
+_PLANT_END_FRAMES = 2  # a planted run ends once its foot is seen not planted in this many frames in a row
+_FLOOR_VEL_GAIN = 0.15  # per-frame gain of the floor velocity estimate (time constant ~6 frames)
+_FLOOR_MAX_SPEED = 2.5  # m/s: a flat foot moving faster between two frames is a tracking jump, not the floor
+
 Cue = Literal["3d", "2d", "combined"]
 
 _VIS_POINTS = 10  # interior axis points per segment sampled by the visibility test
@@ -173,6 +191,10 @@ class TrackerConfig:
     hidden_search_unexplained: float = 0.2  # unexplained foreground share that starts that search ...
     hidden_search_frames: int = 3  # ... once it has lasted this many frames in a row
     hidden_velocity_damping: float = 1.0  # factor on the joint-angle velocity of a leg whose calf and foot are HIDDEN, on top of `velocity_damping` (1 = as any leg, paper; 0 = hold its pose)
+    footprint_sigma: float = math.inf  # m, Gaussian prior on the toe (floor plane) of a HIDDEN foot that was planted when last seen, around that footprint carried along by the floor's motion in the walker frame (inf = none, paper)
+    footprint_sigma_growth: float = 0.1  # m/s, growth of that prior's std-dev with the time since the foot was last seen
+    footprint_max_s: float = 0.5  # s, the prior ends this long after the foot was last seen ...
+    footprint_release_s: float = 0.08  # s, ... or this long after the other foot landed (the double support: then the hidden foot leaves the floor)
     # sampling
     partitioned: bool = False  # root -> left leg -> right leg partitions
     n_layers: int = 1  # annealing layers per partition
@@ -236,6 +258,11 @@ class TrackerConfig:
             raise ValueError(f"hidden_velocity_damping must be in [0, 1], got {self.hidden_velocity_damping}")
         if len(self.pelvis_prior_sigma) != 2 or not all(v > 0 for v in self.pelvis_prior_sigma):
             raise ValueError(f"pelvis_prior_sigma must be two positive values (forward, lateral), got {self.pelvis_prior_sigma}")
+        if not (self.footprint_sigma > 0 and self.footprint_sigma_growth >= 0 and self.footprint_max_s > 0
+                and self.footprint_release_s >= 0):
+            raise ValueError("footprint_sigma must be > 0 (inf = no prior), footprint_sigma_growth and footprint_release_s "
+                             f">= 0 and footprint_max_s > 0, got {self.footprint_sigma}, {self.footprint_sigma_growth}, "
+                             f"{self.footprint_release_s}, {self.footprint_max_s}")
         if not self.heel_rise_dorsiflexion >= 0:
             raise ValueError(f"heel_rise_dorsiflexion must be >= 0 (inf = off), got {self.heel_rise_dorsiflexion}")
         if not (self.foot_roll_prior_sigma > 0 and self.foot_pitch_prior_sigma > 0 and self.feet_crossing_sigma > 0):
@@ -379,6 +406,91 @@ class _HiddenState:
     boost: np.ndarray = field(default_factory=lambda: np.zeros(2, dtype=int))  # frames left per leg
 
 
+@dataclass
+class _Footprints:
+    """Where each foot stood when it was last seen, and the floor's motion through the walker (body) frame.
+
+    A planted foot stays put on the floor, which moves through the walker frame with the walker; when the leading
+    leg hides the trailing foot, nothing in the data holds that foot and, its pose held, it travelled along with
+    the walker (its toe ran 2 cm ahead of the real one after 1-3 hidden frames, 10 cm after 9-15 on the synthetic
+    narrow-gait and baggy-trousers sessions).
+
+    A foot is *planted* in a frame in which it is in view with its toe on the floor (lower than
+    ``FOOTPRINT_HEIGHT``) and not moving forward faster than ``FOOTPRINT_MAX_FORWARD`` (a swinging foot skims the
+    floor at the start of its swing).  Its *planted run* starts there and ends once it is seen not planted in
+    ``_PLANT_END_FRAMES`` frames in a row (one noisy estimate does not end it), or, while it is out of view, once the
+    other foot has been planted for the release time (a walking foot leaves the floor one double support after the
+    other foot lands; the hidden foot cannot be seen to go), or once its estimate lies ``_FOOTPRINT_GATE`` from the
+    footprint (the data have moved it: it swings, or the footprint was wrong).  A footprint needs
+    ``_FOOTPRINT_MIN_SAMPLES`` planted frames.  The floor's velocity is the running mean of the
+    velocities of toes planted in this frame and the last.  Estimated heels are no help here: seen from the front,
+    the tracker often has a flat foot's heel raised by 4-9 cm.  Body-frame xy throughout (+x = the user's forward,
+    the floor moves towards -x).
+    """
+
+    floor_vel: FloatArray = field(default_factory=lambda: np.zeros(2))  # m/s, floor velocity in the body frame
+    prev_stamp: float = math.nan
+    prev_toe: FloatArray = field(default_factory=lambda: np.full((2, 2), np.nan))  # toe xy of the last frame
+    prev_seen: BoolArray = field(default_factory=lambda: np.zeros(2, dtype=bool))
+    prev_planted: BoolArray = field(default_factory=lambda: np.zeros(2, dtype=bool))
+    off_run: NDArray[np.int_] = field(default_factory=lambda: np.zeros(2, dtype=int))  # frames in a row seen not planted
+    planted_since: FloatArray = field(default_factory=lambda: np.full(2, np.nan))  # stamp each planted run began
+    toe_runs: tuple[list[tuple[float, FloatArray]], list[tuple[float, FloatArray]]] = field(
+        default_factory=lambda: ([], []))  # per foot, (stamp, toe xy) of the last planted frames of its planted run
+
+    def update(self, stamp: float, pts: FloatArray, seen: BoolArray, *, release_s: float) -> None:
+        """Take the estimate ``pts`` ``(2, 5, 3)`` (body frame) of the frame at ``stamp``; ``seen`` ``(2,)``:
+        which feet are in view; ``release_s``: how long after the other foot's landing an unseen foot leaves the
+        floor."""
+        toe = pts[:, TOE, :2]
+        low = seen & (pts[:, TOE, 2] < FOOTPRINT_HEIGHT)
+        dt = stamp - self.prev_stamp
+        both = seen & self.prev_seen & (0.0 < dt <= 0.2)
+        vel = (toe - self.prev_toe) / dt if dt > 0 else np.zeros_like(toe)
+        moving = both & (vel[:, 0] > FOOTPRINT_MAX_FORWARD)  # swinging forward
+        planted = low & ~moving
+        ok = planted & self.prev_planted & both & (np.hypot(vel[:, 0], vel[:, 1]) < _FLOOR_MAX_SPEED)
+        if ok.any():
+            self.floor_vel += _FLOOR_VEL_GAIN * (vel[ok].mean(axis=0) - self.floor_vel)
+        self.prev_stamp = stamp
+        self.prev_toe = toe.copy()
+        self.prev_seen = seen.copy()
+        self.prev_planted = planted
+        self.off_run = np.where(planted, 0, np.where(seen, self.off_run + 1, self.off_run))
+        ended = self.off_run >= _PLANT_END_FRAMES
+        self.planted_since = np.where(planted & np.isnan(self.planted_since), stamp, self.planted_since)
+        self.planted_since = np.where(ended, np.nan, self.planted_since)
+        for leg in (0, 1):
+            # NaN (the other foot not planted) compares False
+            released = not seen[leg] and stamp - self.planted_since[1 - leg] > release_s
+            if not seen[leg] and self.toe_runs[leg]:
+                pred = self._carried(leg, stamp)
+                released |= bool(np.hypot(*(toe[leg] - pred)) > _FOOTPRINT_GATE)
+            if planted[leg]:
+                self.toe_runs[leg].append((stamp, toe[leg].copy()))
+                del self.toe_runs[leg][:-_FOOTPRINT_SAMPLES]
+            elif ended[leg] or released:
+                self.toe_runs[leg].clear()
+                if released:
+                    self.planted_since[leg] = np.nan
+
+    def predicted(self, leg: int, stamp: float, *, max_s: float) -> tuple[FloatArray, float] | None:
+        """Where the toe of foot ``leg`` stands at ``stamp`` and the time (s) since it was last seen planted, if its
+        planted run goes on and that was no longer than ``max_s`` ago."""
+        run = self.toe_runs[leg]
+        if len(run) < _FOOTPRINT_MIN_SAMPLES:
+            return None
+        age = stamp - run[-1][0]
+        if not 0.0 <= age <= max_s:
+            return None
+        return self._carried(leg, stamp), age
+
+    def _carried(self, leg: int, stamp: float) -> FloatArray:
+        """The mean of the planted toe's positions of foot ``leg``'s run, each carried along by the floor to
+        ``stamp``."""
+        return np.mean([p + self.floor_vel * (stamp - t) for t, p in self.toe_runs[leg]], axis=0)
+
+
 class LegTracker:
     """Particle-filter tracker of both legs (see module docstring).
 
@@ -430,6 +542,8 @@ class LegTracker:
         self._frames_tracked = 0
         self._unexplained_run = 0  # frames in a row whose estimate left `hidden_search_unexplained` of the foreground unexplained
         self._hidden = _HiddenState()
+        self._footprints = _Footprints()
+        self._stamp = math.nan
         self.status = TrackStatus.NO_USER
         self._coasted = 0
         self._no_legs_run = 0  # consecutive frames whose foreground showed no legs (`legs_in_view`)
@@ -489,6 +603,7 @@ class LegTracker:
         self._coasted = 0
 
         frame = self._prepare(pts, depth, floor)
+        self._stamp = float(stamp)
         searching = False
         if self._x is None:
             self._initialise(frame)
@@ -652,6 +767,20 @@ class LegTracker:
                     a = a + gate * np.clip(lean - cfg.heel_rise_dorsiflexion, 0.0, HEEL_RISE_MAX)
                 a /= cfg.foot_pitch_prior_sigma
                 total -= 0.5 * a * a
+        if math.isfinite(cfg.footprint_sigma):
+            # a HIDDEN foot that stood on the floor when last seen stays there until it leaves the floor, which
+            # nobody sees: one double support (`footprint_release_s`) after the other foot landed, or at the latest
+            # `footprint_max_s` after it was last seen; the prior widens with time.  The floor moves through the
+            # walker frame at the walker's speed, and the footprint with it (see _Footprints)
+            for leg in legs:
+                if not self._hidden.hidden[leg, 2]:
+                    continue
+                pred = self._footprints.predicted(leg, self._stamp, max_s=cfg.footprint_max_s)
+                if pred is None:
+                    continue
+                xy, age = pred
+                d = (kin.points[:, leg, TOE, :2] - xy) / (cfg.footprint_sigma + cfg.footprint_sigma_growth * age)
+                total -= 0.5 * np.einsum("pi,pi->p", d, d)
         if math.isfinite(cfg.foot_roll_prior_sigma):
             # a sole rolled sideways stands on its edge with its heel-toe line off the floor; shoes stay
             # nearly level across (subtalar motion of a few degrees), but from the front the roll is hardly
@@ -923,6 +1052,7 @@ class LegTracker:
         x, _, _ = lm.enforce_constraints(x, fallback=np.broadcast_to(base, x.shape).copy())
         self._x_prev = x.copy()
         self._hidden = _HiddenState()
+        self._footprints = _Footprints()
         layers = max(cfg.n_layers, 2)
         betas = tuple(np.linspace(0.3, 1.0, layers))
         for r in range(cfg.init_rounds):
@@ -948,6 +1078,8 @@ class LegTracker:
         conf, explained = self._confidence(frame, seg_c, rad)
         if self.config.hidden_parts:
             self._update_hidden(visibility)
+        seen = (visibility[:, 2] >= self.config.show_above) & ~self._hidden.hidden[:, 2]
+        self._footprints.update(stamp, pts_body, seen, release_s=self.config.footprint_release_s)
         pose = LegPose(
             stamp=stamp,
             points=frame.body.to_camera(pts_body),
