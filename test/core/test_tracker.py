@@ -725,6 +725,18 @@ def test_footprints_predict_where_a_foot_last_seen_planted_stands() -> None:
     assert fp2.predicted(0, 1.1, max_s=0.5) is None
 
 
+def test_the_tracker_feeds_its_footprints_only_with_the_prior_on(seq) -> None:  # noqa: ANN001
+    """With ``footprint_sigma`` finite the tracker records the planted toes in view each frame (the user of the
+    own sequence keeps a foot on the floor in view); with the prior off (both presets) it does no such work."""
+    for sigma, fed in ((0.02, True), (np.inf, False)):
+        tr = LegTracker(preset("default", n_particles=64, init_rounds=2, footprint_sigma=sigma), KINECT,
+                        rng=np.random.default_rng(0))
+        _run(tr, seq.frames[:10])
+        fp = tr._footprints
+        assert (len(fp.toe_runs[0]) + len(fp.toe_runs[1]) > 0) == fed
+        assert np.isfinite(fp.prev_stamp) == fed
+
+
 def test_footprint_prior_holds_a_hidden_planted_toe_where_the_floor_carried_it(seq) -> None:  # noqa: ANN001
     """For a foot whose segment is HIDDEN and that was planted when last seen, the prior term is
     -0.5 (|toe - footprint| / (sigma + growth x age))^2 on the toe's floor-plane position, footprint = the toe

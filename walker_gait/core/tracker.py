@@ -40,9 +40,9 @@ lives in the floor-aligned *body* frame of :mod:`walker_gait.core.leg_model`):
    shank's forward lean beyond D, the ankle's dorsiflexion in gait, up to ``HEEL_RISE_MAX``, for a foot behind
    the other one whose calf is not HIDDEN (a prior centred on a flat foot held the trailing foot too flat in its
    heel rise, its toe 2-3 cm ahead of the real one);
-   ``footprint_sigma`` (measured, off in both presets) is a Gaussian on the toe of a HIDDEN foot that was planted when last seen,
-   around that footprint carried along by the floor's motion through the walker frame (measured from the
-   planted toes in view), until the foot leaves the floor unseen: ``footprint_release_s`` after the other foot
+   ``footprint_sigma`` (measured, off in both presets) is a Gaussian on the toe of a HIDDEN foot that was
+   planted when last seen, around that footprint carried along by the floor's motion through the walker frame
+   (measured from the planted toes in view), until the foot leaves the floor unseen: ``footprint_release_s`` after the other foot
    lands, at the latest ``footprint_max_s`` after it was last seen (``_Footprints``; held in its last pose, a
    hidden stance foot travelled with the walker, its toe 10 cm ahead after 9-15 hidden frames);
    ``feet_crossing_sigma`` (``default``) is a half-Gaussian against crossed feet: across the pelvis the
@@ -152,7 +152,7 @@ _FOOTPRINT_MIN_SAMPLES = 3  # ... of which it needs this many (a lagging estimat
 _FOOTPRINT_GATE = 0.2  # m: an unseen foot whose estimate is this far from its footprint has left it (or the footprint was wrong)
 _PLANT_END_FRAMES = 2  # a planted run ends once its foot is seen not planted in this many frames in a row
 _FLOOR_VEL_GAIN = 0.15  # per-frame gain of the floor velocity estimate (time constant ~6 frames)
-_FLOOR_MAX_SPEED = 2.5  # m/s: a flat foot moving faster between two frames is a tracking jump, not the floor
+_FLOOR_MAX_SPEED = 2.5  # m/s: a planted toe moving faster between two frames is a tracking jump, not the floor
 
 Cue = Literal["3d", "2d", "combined"]
 
@@ -1078,8 +1078,9 @@ class LegTracker:
         conf, explained = self._confidence(frame, seg_c, rad)
         if self.config.hidden_parts:
             self._update_hidden(visibility)
-        seen = (visibility[:, 2] >= self.config.show_above) & ~self._hidden.hidden[:, 2]
-        self._footprints.update(stamp, pts_body, seen, release_s=self.config.footprint_release_s)
+        if math.isfinite(self.config.footprint_sigma):  # only that prior reads the footprints
+            seen = (visibility[:, 2] >= self.config.show_above) & ~self._hidden.hidden[:, 2]
+            self._footprints.update(stamp, pts_body, seen, release_s=self.config.footprint_release_s)
         pose = LegPose(
             stamp=stamp,
             points=frame.body.to_camera(pts_body),
