@@ -85,6 +85,17 @@ def test_summarise_hand_built_errors() -> None:
     assert s["confident_share"] == 1.0 and s["step_length_mae_confident_cm"] == pytest.approx(1.0)
     assert s["step_width_mae_confident_cm"] == pytest.approx(3.0)
     assert s["hs_timing_median_abs_frames"] == pytest.approx((0.3 + 0.6) / 2)  # strikes 10 and 20 ms late at 30 Hz
+    assert math.isnan(s["to_timing_median_abs_frames"]) and math.isnan(s["double_support_median_err_frames"])
+    # toe offs (heel strike less swing time) and double supports, where both steps have them
+    t = _run()
+    t.gt[0] = replace(t.gt[0], swing_time=0.40, double_support_time=0.10)
+    t.det[0] = replace(t.det[0], swing_time=0.44, double_support_time=0.05)  # toe off 30 ms early, DS 1.5 frames short
+    t.gt[1] = replace(t.gt[1], swing_time=0.40)
+    t.det[1] = replace(t.det[1], swing_time=0.40)  # toe off 20 ms late (the strike's error)
+    e = sweep.summarise([t])
+    assert e["to_timing_median_abs_frames"] == pytest.approx((0.9 + 0.6) / 2)
+    assert e["double_support_median_err_frames"] == pytest.approx(-1.5)
+    assert "| TO timing median abs err frames | 0.75 |" in sweep.format_table({"x": {"per_tracker_seed": {0: e}}})
     # a step the analyzer doubts is left out of the confident figures only
     r = _run()
     r.det[1] = replace(r.det[1], step_length=0.35, confidence=0.2)  # 20 cm short

@@ -126,19 +126,22 @@ def test_first_step_hovering_mid_swing_is_one_step() -> None:
 
 @pytest.mark.parametrize("name", ["normal", "slow", "asymmetric"])
 def test_clean_walks_exact(name: str) -> None:
-    """Exact leg points.  Heel strikes within a frame when timed against the other foot's toe (the default); the
-    experimental ``hs_walker_frame`` times them on the heel's own walker-frame track with a linear drift, which the
-    simulated walker's surges (+-30 % within each step) bend: within 1.3 frames (1.22 on ``slow``)."""
+    """Exact leg points.  The default times heel strikes and toe offs on the foot's own walker-frame track with a
+    linear drift for the walker passing a planted foot; this simulated walker surges (+-30 % within each step), which
+    bends that drift: heel strikes within 1.3 frames (measured 1.22 on ``slow``).  Timed against the other foot
+    (``hs_walker_frame`` / ``to_walker_frame`` off), which the surges do not reach: within a frame."""
     sim, ga, r = _run(SCENARIOS[name])
     assert r["precision"] == 1.0 and r["recall"] == 1.0
     assert r["step_length_mae"] < 0.003
     assert r["step_width_mae"] < 0.003
-    assert r["hs_timing_median_abs_frames"] <= 1.0
-    walker = evaluate_gait(sim.steps, sim.events, run_analyzer(sim.poses, sim.floor,
-                                                              config=GaitConfig(hs_walker_frame=True)),
-                           fps=SCENARIOS[name].fps)
-    assert walker["precision"] == 1.0 and walker["recall"] == 1.0
-    assert walker["hs_timing_median_abs_frames"] <= 1.3
+    assert r["hs_timing_median_abs_frames"] <= 1.3
+    relative = evaluate_gait(sim.steps, sim.events,
+                             run_analyzer(sim.poses, sim.floor,
+                                          config=GaitConfig(hs_walker_frame=False, to_walker_frame=False)),
+                             fps=SCENARIOS[name].fps)
+    assert relative["precision"] == 1.0 and relative["recall"] == 1.0
+    assert relative["hs_timing_median_abs_frames"] <= 1.0
+    assert relative["to_timing_median_abs_frames"] <= 1.0
     assert r["to_timing_median_abs_frames"] <= 1.0
     assert abs(r["cadence_error_pct"]) < 1.0
     assert all(s.confidence > 0.95 for s in ga.steps)
@@ -477,9 +480,9 @@ def test_visible_feet_keep_their_raw_positions() -> None:
 @pytest.mark.parametrize("name", ["normal", "slow", "stop_and_go", "variable"])
 def test_noise_1cm_robustness(name: str) -> None:
     """1 cm noise on every point: detection, step length/width and heel-strike timing hold.  The default times
-    heel strikes by the heel's horizontal arrest alone (measured 1.4-1.6 frames here); the heel's height,
-    sharper on exact kinematics but late on tracked heels (see test_lagging_heel_height_...), gets them
-    within a frame."""
+    heel strikes by the heel's horizontal arrest alone (measured 0.8-1.9 frames here); the heel's height next to its
+    position relative to the other foot, sharper on exact kinematics but late on tracked heels (see
+    test_lagging_heel_height_...), gets them within a frame."""
     spec = replace(SCENARIOS[name], noise_m=0.01)
     tp = gt = det = 0
     sl, sw, hs, hs_height = [], [], [], []
@@ -491,7 +494,7 @@ def test_noise_1cm_robustness(name: str) -> None:
         sl.append(r["step_length_mae"])
         sw.append(r["step_width_mae"])
         hs.append(r["hs_timing_median_abs_frames"])
-        ga_h = run_analyzer(sim.poses, sim.floor, config=GaitConfig(hs_height_weight=1.0))
+        ga_h = run_analyzer(sim.poses, sim.floor, config=GaitConfig(hs_height_weight=1.0, hs_walker_frame=False))
         hs_height.append(evaluate_gait(sim.steps, sim.events, ga_h, fps=spec.fps)["hs_timing_median_abs_frames"])
     assert tp / det >= 0.98 and tp / gt >= 0.98
     assert np.mean(sl) <= 0.015
@@ -646,6 +649,27 @@ def test_lagging_heel_height_does_not_delay_heel_strikes() -> None:
     assert height["hs_timing_median_abs_frames"] > 1.3  # measured 1.52
 
 
+def test_toe_raised_early_does_not_advance_toe_offs() -> None:
+    """A tracked toe is raised early in the heel rise (the sweep's tracked toe offs came 1-1.2 frames early with
+    the toe's height in the fit): here its height leads by 3 frames, its horizontal position does not.  The default
+    times toe offs on the toe's walker-frame position and stays within half a frame; the toe's height (off) makes
+    them early."""
+    for name in ("normal", "slow", "asymmetric"):
+        spec = SCENARIOS[name]
+        sim = simulate_gait(spec, rng=np.random.default_rng(0))
+        rot, off = sim.floor.walker_transform()
+        walker = np.array([p.points @ rot.T + off for p in sim.poses])
+        walker[:-3, :, TOE, 2] = walker[3:, :, TOE, 2].copy()
+        poses = [replace(p, points=(w - off) @ rot) for p, w in zip(sim.poses, walker, strict=True)]
+        default = evaluate_gait(sim.steps, sim.events, run_analyzer(poses, sim.floor), fps=spec.fps)
+        height = evaluate_gait(sim.steps, sim.events,
+                               run_analyzer(poses, sim.floor, config=GaitConfig(to_walker_frame=False)), fps=spec.fps)
+        assert default["precision"] == 1.0 and default["recall"] == 1.0, name
+        assert default["to_timing_median_abs_frames"] < 0.5, name  # measured 0.18-0.34
+        assert height["to_timing_median_abs_frames"] > 1.3, name  # measured 1.5-1.72
+        assert height["to_timing_bias_ms"] < -30, name  # early: -48 to -59 ms
+
+
 def test_online_latency_is_bounded() -> None:
     sim = simulate_gait(SCENARIOS["normal"], rng=np.random.default_rng(0))
     ga = GaitAnalyzer()
@@ -708,7 +732,13 @@ def test_summary_mirrors_message_and_is_json() -> None:
     for side in range(2):
         assert s.stance_percent_side[side] + s.swing_percent_side[side] == pytest.approx(100.0, abs=0.5)
         assert s.stance_percent_side[side] == pytest.approx(gt.stance_percent_side[side], abs=3.0)
-    assert s.double_support_percent == pytest.approx(gt.double_support_percent, abs=3.0)
+    # this simulated walker surges +-30 % within each step, which the walker-frame event fits follow less well,
+    # and its heel comes to rest before it touches (strikes timed 1 frame early): double support +3.3 points
+    # (+0.3 timed against the other foot, below); on the synthetic generator's tracked poses the default's double
+    # support time is the closer one (median error -1.4 against -2.9 frames, see GaitConfig.to_walker_frame)
+    assert s.double_support_percent == pytest.approx(gt.double_support_percent, abs=4.0)
+    rel = run_analyzer(sim.poses, sim.floor, config=GaitConfig(hs_walker_frame=False, to_walker_frame=False)).summary()
+    assert rel.double_support_percent == pytest.approx(gt.double_support_percent, abs=3.0)
     empty = GaitAnalyzer().summary()
     assert empty.step_count == 0 and math.isnan(empty.cadence)
     assert json.dumps(empty.to_dict(), allow_nan=False)

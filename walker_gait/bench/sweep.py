@@ -247,6 +247,21 @@ def _step_errors(runs: list[SessionRun]) -> dict[str, float]:
     frames = np.array([(r.det[j].stamp - r.gt[t].stamp) / float(np.median(np.diff(r.stamps)))
                        for r in runs if r.stamps.size > 1 for t, j in r.pairs])
     out["hs_timing_median_abs_frames"] = float(np.median(np.abs(frames))) if frames.size else math.nan
+    # toe offs: a step's swing ends at its heel strike, so its toe off is the stamp less the swing time; the double
+    # support time sums two intervals between a heel strike and a toe off
+    to, ds = [], []
+    for r in runs:
+        if r.stamps.size < 2:
+            continue
+        dt = float(np.median(np.diff(r.stamps)))
+        for t, j in r.pairs:
+            g, d = r.gt[t], r.det[j]
+            if math.isfinite(g.swing_time) and math.isfinite(d.swing_time):
+                to.append(((d.stamp - d.swing_time) - (g.stamp - g.swing_time)) / dt)
+            if math.isfinite(g.double_support_time) and math.isfinite(d.double_support_time):
+                ds.append((d.double_support_time - g.double_support_time) / dt)
+    out["to_timing_median_abs_frames"] = float(np.median(np.abs(to))) if to else math.nan
+    out["double_support_median_err_frames"] = float(np.median(ds)) if ds else math.nan
     return out
 
 
@@ -393,6 +408,8 @@ _ROWS = (("heel err cm", ("joint_err_cm", "heel")), ("toe err cm", ("joint_err_c
          ("confident: length MAE cm", ("step_length_mae_confident_cm",)),
          ("confident: width MAE cm", ("step_width_mae_confident_cm",)),
          ("HS timing median abs err frames", ("hs_timing_median_abs_frames",)),
+         ("TO timing median abs err frames", ("to_timing_median_abs_frames",)),
+         ("double support median err frames", ("double_support_median_err_frames",)),
          ("cadence abs err %", ("cadence_abs_err_pct",)), ("gait speed abs err %", ("speed_abs_err_pct",)),
          ("trailing toe median cm", ("trailing_toe_median_cm",)), ("tracker ms/frame", ("tracker_ms",)))
 

@@ -23,10 +23,11 @@ Method in short (all geometry in the floor plane of the *walker* frame, see ``ty
    forward (tiny shuffles and a moving walker with still feet produce nothing); heel strike
    = the swinging heel comes to rest (speed < ``rest_speed_mps`` over ``rest_window_s``)
    near the floor.  Both are then timed to sub-frame precision by fitting a hinge
-   ``y = b + a*max(0, ±(t - t_c))**p`` (p in {1, 1.5, 2, 3}) to the raw horizontal
-   displacement (relative to the other, planted foot; heel strikes optionally in the walker frame with a
-   free linear drift, ``hs_walker_frame``) around the detection and, for toe offs,
-   the raw height (heel strikes: ``hs_height_weight``).
+   ``y = b + a*max(0, ±(t - t_c))**p`` (p in {1, 1.5, 2, 3}) to the foot's raw position along its
+   swing in the walker frame with a free linear drift (the walker passing a planted foot;
+   ``hs_walker_frame``, ``to_walker_frame``) around the detection, for toe offs also relative to the
+   other foot's planted heel (off: relative to the other foot, and the toe's height; heel strikes:
+   ``hs_height_weight``).
 5. Footfalls are located in the world by chaining: at the heel strike of foot B, foot A is
    still planted (double support), so the step vector is the mean over the double-support
    frames of ``heel_B - (toe_A + o_A)``, where ``o_A`` is A's heel-minus-toe offset measured
@@ -135,14 +136,25 @@ class GaitConfig:
     synthetic sessions x 2 tracker seeds, weight 1 times heel strikes 1-2 frames late (median error
     2.1-2.3 frames, 0: 1.7-2.0).  On exact kinematics the height is the sharper signal (1: 0.6-0.9 frame
     median error with 1 cm noise, 0: 1.4-1.6)."""
-    hs_walker_frame: bool = False
-    """Experimental.  True: the heel strike fit's horizontal arrest is the heel's own position along the swing in the
-    walker frame, with a free linear drift (the walker's motion past the landed foot), instead of the heel relative
-    to the other foot's toe.  That toe is the trailing one, in its heel rise, and the tracker lets it creep forward
-    then, which the fit takes for the landing heel still moving.  On 2 x 32 tracked synthetic sessions x 2 seeds:
-    median timing error 1.36-1.62 -> 1.13-1.27 frames, steps matched and precision up in all 8 runs; but on exact
-    kinematics, whose walker surges +-30 % within each step, the linear drift misplaces strikes (median 0.76-0.98
-    -> 0.87-1.22 frames, double support +3 % on ``variable``), so it is not the default yet."""
+    hs_walker_frame: bool = True
+    """True: the heel strike fit's horizontal arrest is the heel's own position along the swing in the walker frame,
+    with a free linear drift (the walker's motion past the landed foot).  False: the heel relative to the other
+    foot's toe.  That toe is the trailing one, in its heel rise, and the tracker lets it creep forward then, which the
+    fit takes for the landing heel still moving (strikes timed at the detection, 0.15-0.3 s late).  Tracked poses of
+    2 x 32 synthetic sessions x 2 tracker seeds (``make sweep``, sets C / A): median timing error 1.50 / 1.65, 1.47 /
+    1.39 -> 1.22 / 1.16, 1.23 / 1.17 frames, steps matched 306 / 300, 312 / 312 -> 310 / 308, 319 / 321, precision
+    up or equal in all four runs.  Exact leg points of the synthetic generator (walker speed within +-10 % over a
+    step): alike (0.1-1.1 frames either way).  A walker that surges within each step bends the linear drift:
+    on :func:`walker_gait.bench.gait.simulate_gait`'s (+-30 %) 0.76-0.98 -> 0.88-1.22 frames."""
+    to_walker_frame: bool = True
+    """True: the toe off fit uses the toe's own position along the swing in the walker frame (free linear drift: the
+    floor carries the planted toe back) next to the toe relative to the other foot's heel, and leaves out the toe's
+    height.  False: the height and the relative position.  A tracked toe is raised early in its heel rise, and
+    creeps forward relative to the other heel: on the tracked poses of ``make sweep`` (sets C / A, both tracker
+    seeds pooled) toe offs came 0.95 / 1.24 frames early (median; median |error| 1.31 / 1.60 frames), with this
+    0.15 / 0.12 early (0.67 / 0.66), and the double support time error went from -2.41 / -2.73 to -1.85 / -1.48
+    frames (median).  On exact leg points with 1 cm i.i.d. noise the height is the sharper signal: 0.5-1.0 ->
+    0.9-1.7 frames on :func:`walker_gait.bench.gait.simulate_gait`."""
     hs_height_tol_m: float = 0.04
     """A heel strike needs the heel within this height (m) of its floor baseline."""
     hs_resume_distance_m: float = 0.04
@@ -927,7 +939,13 @@ class GaitAnalyzer:
         # the other foot's heel is the horizontal reference only once it is planted
         horiz = np.where((tt < t_hs_b) | (self._weight[idx, b, _H] < 0.5), np.nan, rel @ u)
         chans = [self._raw[idx, a, _T, 2], horiz]
-        t_to = _hinge_time(tt, chans, rising=True, tc_lo=tc_lo, tc_hi=t_conf)
+        drift: tuple[int, ...] = ()
+        if c.to_walker_frame:
+            # the toe's own walker-frame position along the swing instead of its height: planted, it moves back with
+            # the floor (a free linear drift), then forward; a tracked toe is raised early in the heel rise
+            chans = [horiz, self._raw[idx, a, _T, :2] @ u]
+            drift = (1,)
+        t_to = _hinge_time(tt, chans, rising=True, tc_lo=tc_lo, tc_hi=t_conf, drift=drift)
         if not math.isfinite(t_to):
             t_to = t_rest
         conf = self._event_conf(t_to)
