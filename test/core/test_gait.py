@@ -776,3 +776,28 @@ def test_implausible_step_geometry_is_flagged_not_dropped() -> None:
     assert math.isnan(mean) or mean <= 0.3
     with pytest.raises(GaitInputError):
         GaitConfig(implausible_quality=2.0)
+    with pytest.raises(GaitInputError):  # an implausible step at confidence 1 would still count in the cadence
+        GaitConfig(implausible_quality=0.25, summary_min_time_confidence=0.25)
+    with pytest.raises(GaitInputError):
+        GaitConfig(min_step_time_s=-0.1)
+
+
+def test_steps_faster_than_walking_are_implausible() -> None:
+    """A step time under ``min_step_time_s`` (0.3 s, a cadence above 200 steps/min) is not walking: such steps are
+    reported with their confidence scaled by ``implausible_quality`` and stay out of the summary; brisk walking
+    (0.4 s, 150 steps/min) is untouched."""
+    brisk = GaitSimSpec(step_time=(0.4, 0.4), step_length=(0.3, 0.3), bouts=(("stand", 1.0), ("walk", 12), ("stand", 1.0)))
+    sim, ga, r = _run(brisk)
+    assert r["precision"] == 1.0 and r["recall"] == 1.0
+    assert all(s.confidence > 0.95 for s in ga.steps)
+    assert ga.summary().cadence == pytest.approx(150.0, rel=0.02)
+    running = replace(brisk, step_time=(0.26, 0.26))
+    sim = simulate_gait(running, rng=np.random.default_rng(0))
+    ga = run_analyzer(sim.poses, sim.floor)
+    off = run_analyzer(sim.poses, sim.floor, config=GaitConfig(min_step_time_s=0.0))
+    assert len(ga.steps) == len(off.steps) == len(sim.steps)  # reported all the same
+    fast = [i for i, s in enumerate(off.steps) if s.step_time < 0.3]
+    assert len(fast) >= len(sim.steps) // 2
+    assert all(ga.steps[i].confidence <= 0.2 * off.steps[i].confidence + 1e-9 for i in fast)
+    assert all(ga.steps[i].confidence == off.steps[i].confidence for i in range(len(ga.steps)) if i not in fast)
+    assert off.summary().cadence > 200 and not ga.summary().cadence > 200
