@@ -95,7 +95,8 @@ def test_summarise_hand_built_errors() -> None:
     e = sweep.summarise([t])
     assert e["to_timing_median_abs_frames"] == pytest.approx((0.9 + 0.6) / 2)
     assert e["double_support_median_err_frames"] == pytest.approx(-1.5)
-    assert "| TO timing median abs err frames | 0.75 |" in sweep.format_table({"x": {"per_tracker_seed": {0: e}}})
+    table = sweep.format_table({"x": {"per_tracker_seed": {0: e}}})
+    assert "| TO timing median abs err frames | 0.75 |" in table and "| step length median abs err cm | 1.00 |" in table
     # a step the analyzer doubts is left out of the confident figures only
     r = _run()
     r.det[1] = replace(r.det[1], step_length=0.35, confidence=0.2)  # 20 cm short
