@@ -108,6 +108,15 @@ def test_summarise_hand_built_errors() -> None:
     # a summary written before a figure existed shows it as n/a
     old = {k: v for k, v in d.items() if k != "confident_share"}
     assert "| confident steps share | n/a |" in sweep.format_table({"x": {"per_tracker_seed": {0: old}}})
+    assert s["swapped_frames_pct"] == 0.0 and s["runs_with_swaps"] == 0
+    # left and right exchanged in 6 frames: swaps; both model feet on the right foot in 3 more: not swaps
+    w = _run()
+    w.est[20:26] = w.truth[20:26, ::-1]
+    w.est[40:43, 0] = w.truth[40:43, 1]
+    w.est[40:43, 1] = w.truth[40:43, 1]
+    sw = sweep.summarise([w, _run(1)])
+    assert sw["swapped_frames_pct"] == pytest.approx(100 * 6 / 120) and sw["runs_with_swaps"] == 1
+    assert "| swapped frames % | 5.00 |" in sweep.format_table({"x": {"per_tracker_seed": {0: sw}}})
     # a frame lost (no estimate) counts as > 10 cm
     r = _run()
     r.est[10] = np.nan

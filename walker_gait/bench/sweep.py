@@ -301,6 +301,27 @@ def _trailing_toe(runs: list[SessionRun]) -> dict[str, float]:
             "trailing_toe_mean_cm": float(np.mean(e)) if e.size else math.nan}
 
 
+SWAP_MARGIN_M = 0.05
+"""A frame's legs count as swapped when the tracked feet (ankle, heel, toe) fit the other side's true feet better, by
+this much on average, than their own."""
+
+
+def _swaps(runs: list[SessionRun]) -> dict[str, float]:
+    """Left/right swaps: the share of trackable frames (%) whose tracked feet lie on the other side's true feet, and
+    the number of runs with any such frame (a model leg that merely covers both real legs is not a swap)."""
+    frames = swapped = runs_with = 0
+    for r in runs:
+        est, truth = r.est[:, :, ANKLE : TOE + 1], r.truth[:, :, ANKLE : TOE + 1]
+        ok = r.trackable & np.all(np.isfinite(est.reshape(len(est), -1)), axis=1)
+        own = np.linalg.norm(est - truth, axis=-1).mean(axis=(1, 2))
+        other = np.linalg.norm(est - truth[:, ::-1], axis=-1).mean(axis=(1, 2))
+        s = ok & (other + SWAP_MARGIN_M < own)
+        frames += int(ok.sum())
+        swapped += int(s.sum())
+        runs_with += int(s.any())
+    return {"swapped_frames_pct": 100.0 * swapped / frames if frames else math.nan, "runs_with_swaps": runs_with}
+
+
 def summarise(runs: list[SessionRun]) -> dict[str, Any]:
     """Figures of a set of runs (one tracker seed, or several pooled)."""
     import warnings
@@ -341,6 +362,7 @@ def summarise(runs: list[SessionRun]) -> dict[str, Any]:
                matched_in_view=matched_in_view, precision=matched / det if det else math.nan,
                recall=matched / gt if gt else math.nan,
                recall_in_view=matched_in_view / in_view if in_view else math.nan)
+    out.update(_swaps(runs))
     out.update(_step_errors(runs))
     out.update(_summary_errors(runs))
     out.update(_trailing_toe(runs))
@@ -399,6 +421,7 @@ def report(runs: list[SessionRun], *, with_oracle: bool = False, gait: GaitConfi
 _ROWS = (("heel err cm", ("joint_err_cm", "heel")), ("toe err cm", ("joint_err_cm", "toe")),
          ("ankle err cm", ("joint_err_cm", "ankle")), ("knee err cm", ("joint_err_cm", "knee")),
          ("hip err cm", ("joint_err_cm", "hip")), ("frames > 10 cm %", ("frames_over_10cm_pct",)),
+         ("swapped frames %", ("swapped_frames_pct",)), ("runs with swaps", ("runs_with_swaps",)),
          ("good-frame heel cm", ("good_frame_err_cm", "heel")), ("good-frame toe cm", ("good_frame_err_cm", "toe")),
          ("foot length bias cm", ("foot_length_bias_cm",)), ("matched steps", ("matched_steps",)),
          ("recall in view", ("recall_in_view",)), ("precision", ("precision",)),
