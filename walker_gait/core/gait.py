@@ -206,8 +206,8 @@ class GaitConfig:
     swing / double-support %, swing symmetry) even when below ``summary_min_confidence``: a step's time is its heel
     strike's, whatever the doubt on its footprint, and the mean step time over an unbroken run of heel strikes
     telescopes (each strike's timing error enters one step with + and the next with -), which a missing step
-    breaks.  Below it (``implausible_quality`` x confidence: implausible geometry) a step is taken for a tracking
-    error, not a step.  Tracker poses of ``make sweep`` (sets C / A, tracker seeds pooled; 0.5 -> 0.25): absolute
+    breaks.  Below it (``implausible_quality`` x confidence: implausible geometry or time) a step is taken for a
+    tracking error, not a step.  Tracker poses of ``make sweep`` (sets C / A, tracker seeds pooled; 0.5 -> 0.25): absolute
     error of the session cadence, mean over sessions 5.1 -> 4.8 % and 6.2 -> 5.2 %, median 2.3 -> 1.9 % and
     2.6 -> 1.5 %."""
     summary_max_step_time_ratio: float = 1.8
@@ -287,8 +287,8 @@ class GaitConfig:
         if not (math.isfinite(self.min_step_time_s) and self.min_step_time_s >= 0):
             raise GaitInputError(f"GaitConfig.min_step_time_s must be >= 0 and finite, got {self.min_step_time_s}")
         if self.implausible_quality >= self.summary_min_time_confidence > 0:
-            raise GaitInputError("GaitConfig.implausible_quality must be below summary_min_time_confidence (an implausible "
-                                 f"step stays out of the summary), got {self.implausible_quality}, "
+            raise GaitInputError("GaitConfig.implausible_quality must be below summary_min_time_confidence (an "
+                                 f"implausible step stays out of the summary), got {self.implausible_quality}, "
                                  f"{self.summary_min_time_confidence}")
 
 
