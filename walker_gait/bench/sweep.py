@@ -243,23 +243,21 @@ def _step_errors(runs: list[SessionRun]) -> dict[str, float]:
     for name, e in (("length", length[sure]), ("width", width[sure & has_w])):
         out[f"step_{name}_mae_confident_cm"] = float(np.mean(np.abs(e))) if e.size else math.nan
     out["confident_share"] = float(sure.mean()) if sure.size else math.nan
-    # heel-strike timing of the matched steps (a step's stamp is its heel strike), in frames of each run
-    frames = np.array([(r.det[j].stamp - r.gt[t].stamp) / float(np.median(np.diff(r.stamps)))
-                       for r in runs if r.stamps.size > 1 for t, j in r.pairs])
-    out["hs_timing_median_abs_frames"] = float(np.median(np.abs(frames))) if frames.size else math.nan
-    # toe offs: a step's swing ends at its heel strike, so its toe off is the stamp less the swing time; the double
-    # support time sums two intervals between a heel strike and a toe off
-    to, ds = [], []
+    # event timing of the matched steps, in frames of each run: a step's stamp is its heel strike, its swing ends
+    # there (toe off = stamp less swing time), and its double support sums two heel-strike-to-toe-off intervals
+    hs, to, ds = [], [], []
     for r in runs:
         if r.stamps.size < 2:
             continue
         dt = float(np.median(np.diff(r.stamps)))
         for t, j in r.pairs:
             g, d = r.gt[t], r.det[j]
+            hs.append((d.stamp - g.stamp) / dt)
             if math.isfinite(g.swing_time) and math.isfinite(d.swing_time):
                 to.append(((d.stamp - d.swing_time) - (g.stamp - g.swing_time)) / dt)
             if math.isfinite(g.double_support_time) and math.isfinite(d.double_support_time):
                 ds.append((d.double_support_time - g.double_support_time) / dt)
+    out["hs_timing_median_abs_frames"] = float(np.median(np.abs(hs))) if hs else math.nan
     out["to_timing_median_abs_frames"] = float(np.median(np.abs(to))) if to else math.nan
     out["double_support_median_err_frames"] = float(np.median(ds)) if ds else math.nan
     return out
