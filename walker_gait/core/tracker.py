@@ -53,7 +53,9 @@ lives in the floor-aligned *body* frame of :mod:`walker_gait.core.leg_model`):
    half-cylinder, which is twice as wide at the heel: the silhouette and the surface's depth
    come from the section's extent across and along the line of sight (:func:`camera_segments`);
    the half-cylinder made the filter shorten the model foot (by ~3.7 cm) to hide its too-wide heel;
-5. final weights with the full likelihood; estimate = weighted mean (points and angles);
+5. final weights with the full likelihood; estimate = weighted mean (points and angles); with
+   ``toe_from_data`` (``default``) each reported toe is then measured from the foreground around the tracked
+   foot (:mod:`walker_gait.core.feet`: the front of its toe box), the particles left as they are;
 6. hidden-part handling: per-segment visibility of the estimate by comparing its rendered
    depth with the observed depth, a VISIBLE/HIDDEN state machine per segment (seed 003
    fig. 7); hidden segments are left out of ``d_MF`` (carried by the dynamics) and, when a
@@ -98,6 +100,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from walker_gait.core import leg_model as lm
+from walker_gait.core.feet import ToeFit, measure_toes
 from walker_gait.core.leg_model import BodyFrame, Kinematics, StateLayout
 from walker_gait.core.likelihood import (
     PAPER_LAMBDA_2D,
@@ -216,6 +219,7 @@ class TrackerConfig:
     sigma_knee: float = 0.08  # rad
     sigma_ankle: float = 0.07  # rad
     # model
+    toe_from_data: bool = False  # report each toe measured from the foreground around the tracked foot (the front of its toe box, see `feet`) instead of the model foot's end; the particles are unchanged (false: the model's, paper)
     elliptic_foot: bool = False  # likelihood sees each foot as a half-ellipse as tall as its radius and 0.155 x foot length wide, like a shoe (false: the paper's half-cylinder)
     # pose prior
     ankle_prior_sigma: float = math.inf  # rad, Gaussian prior on ankle flexion around neutral (inf = none, paper)
@@ -338,6 +342,7 @@ DEFAULT = TrackerConfig(
     pelvis_prior_sigma=(0.12, 0.06),
     feet_crossing_sigma=0.03,
     elliptic_foot=True,
+    toe_from_data=True,
 )
 """Real-time preset: partitioned annealed sampling with 192 particles; coarse layers weighted by the 3D
 cue, final layers by the combined cue with a 64x48 2D cue."""
@@ -1081,6 +1086,12 @@ class LegTracker:
         if math.isfinite(self.config.footprint_sigma):  # only that prior reads the footprints
             seen = (visibility[:, 2] >= self.config.show_above) & ~self._hidden.hidden[:, 2]
             self._footprints.update(stamp, pts_body, seen, release_s=self.config.footprint_release_s)
+        if self.config.toe_from_data:
+            camera = frame.body.to_body(np.zeros(3))
+            toes, _ = measure_toes(pts_body, frame.fg_all_body, camera=camera,
+                                   fit=ToeFit(min_height=self.config.fg_min_height))
+            pts_body = pts_body.copy()
+            pts_body[:, TOE] = toes
         pose = LegPose(
             stamp=stamp,
             points=frame.body.to_camera(pts_body),

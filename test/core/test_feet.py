@@ -1,0 +1,120 @@
+"""Tests of walker_gait.core.feet."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from walker_gait.core.feet import ToeFit, measure_toes
+from walker_gait.core.types import ANKLE, HEEL, TOE
+
+CAMERA = np.array([1.0, 0.0, 0.45])  # body frame: the walker's camera ahead of the user, 45 cm up
+
+
+def _shoe(heel: np.ndarray, toe: np.ndarray, rng: np.random.Generator, n: int = 600) -> np.ndarray:
+    """Points on the top and front of a shoe from ``heel`` to ``toe`` (on the floor): width 9 cm,
+    height 10 cm at the heel falling to 4.5 cm at the toe, as a camera in front of it sees them."""
+    u = (toe - heel)[:2] / np.linalg.norm((toe - heel)[:2])
+    v = np.array([-u[1], u[0]])
+    length = float(np.linalg.norm((toe - heel)[:2]))
+    s = rng.uniform(0.0, 1.0, n) ** 0.5  # denser towards the toe, which faces the camera
+    w = rng.uniform(-0.045, 0.045, n) * np.where(s > 0.9, (1.0 - s) * 8.0 + 0.2, 1.0)
+    h = 0.10 - 0.055 * s
+    xy = heel[:2] + (s * length)[:, None] * u + w[:, None] * v
+    return np.column_stack([xy, rng.uniform(0.75, 1.0, n) * h])
+
+
+def _legs(heels: np.ndarray, toes: np.ndarray) -> np.ndarray:
+    legs = np.zeros((2, 5, 3))
+    legs[:, HEEL] = heels
+    legs[:, TOE] = toes
+    legs[:, ANKLE] = heels + np.array([0.05, 0.0, 0.08])
+    legs[:, 0] = heels + np.array([0.05, 0.0, 0.9])
+    legs[:, 1] = heels + np.array([0.05, 0.0, 0.45])
+    return legs
+
+
+def _scene(rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    heels = np.array([[0.0, 0.06, 0.0], [0.15, -0.06, 0.0]])  # narrow gait: left foot behind, right foot ahead
+    toes = heels + np.array([0.26, 0.0, 0.0])
+    pts = np.vstack([_shoe(heels[s], toes[s], rng) for s in (0, 1)])
+    return heels, toes, pts
+
+
+def test_toes_come_from_the_shoes_front() -> None:
+    rng = np.random.default_rng(3)
+    heels, toes, pts = _scene(rng)
+    # tracked feet: the left one 4 cm short and 2 cm outward, the right one 3 cm long
+    tracked = _legs(heels + [[0.0, 0.02, 0.0], [0.0, 0.0, 0.0]], toes + [[-0.04, 0.02, 0.0], [0.03, 0.0, 0.0]])
+    got, measured = measure_toes(tracked, pts, camera=CAMERA)
+    assert measured.all()
+    err = np.linalg.norm(got[:, :2] - toes[:, :2], axis=1)
+    assert np.all(err < 0.012), err
+    tracked_err = np.linalg.norm(tracked[:, TOE, :2] - toes[:, :2], axis=1)
+    assert np.all(err < 0.5 * tracked_err)
+    np.testing.assert_array_equal(got[:, 2], tracked[:, TOE, 2])  # heights stay the tracked ones
+
+
+def test_other_foot_and_high_points_are_not_the_toe() -> None:
+    rng = np.random.default_rng(4)
+    heels, toes, pts = _scene(rng)
+    # a trouser leg hanging in front of the left shoe's upper part, above the shoe band
+    hem = np.column_stack([rng.uniform(0.2, 0.34, 200), rng.uniform(0.02, 0.10, 200), rng.uniform(0.13, 0.4, 200)])
+    got, measured = measure_toes(_legs(heels, toes), np.vstack([pts, hem]), camera=CAMERA)
+    assert measured.all()
+    # the right shoe reaches 15 cm further forward than the left one: its points must not move the left toe
+    assert abs(got[0, 0] - toes[0, 0]) < 0.012
+    assert abs(got[1, 0] - toes[1, 0]) < 0.012
+
+
+def test_unmeasured_feet_keep_their_toes() -> None:
+    rng = np.random.default_rng(5)
+    heels, toes, pts = _scene(rng)
+    legs = _legs(heels, toes + [[-0.03, 0.0, 0.0], [-0.03, 0.0, 0.0]])
+    # too few points near the feet
+    got, measured = measure_toes(legs, pts[:10], camera=CAMERA)
+    assert not measured.any()
+    np.testing.assert_array_equal(got, legs[:, TOE])
+    # the feet point away from the camera: the camera sees their heels, not their toe boxes
+    got, measured = measure_toes(legs, pts, camera=np.array([-1.0, 0.0, 0.45]))
+    assert not measured.any()
+    np.testing.assert_array_equal(got, legs[:, TOE])
+    # a foot without a pose
+    broken = legs.copy()
+    broken[0, HEEL] = np.nan
+    got, measured = measure_toes(broken, pts, camera=CAMERA)
+    assert not measured.any()
+    np.testing.assert_array_equal(got, legs[:, TOE])
+
+
+def test_rejects_bad_input() -> None:
+    with pytest.raises(ValueError, match="legs"):
+        measure_toes(np.zeros((2, 4, 3)), np.zeros((5, 3)), camera=CAMERA)
+    with pytest.raises(ValueError, match="max_height"):
+        ToeFit(min_height=0.2, max_height=0.1)
+    with pytest.raises(ValueError, match="percentile"):
+        ToeFit(percentile=0.0)
+    with pytest.raises(ValueError, match="min_points"):
+        ToeFit(min_points=0)
+
+
+def test_a_foot_on_its_toes_is_measured_at_the_sole_tip() -> None:
+    """Late stance: a rigid shoe pivots on its toe, heel up; its toe box leans forward over the tip."""
+    rng = np.random.default_rng(6)
+    length, pitch = 0.26, 0.5
+    flat = _shoe(np.zeros(3), np.array([length, 0.0, 0.0]), rng)
+    # rotate about the tip (y axis): heel up by `pitch`, the tip stays on the floor
+    c, s = np.cos(pitch), np.sin(pitch)
+    rel = flat - [length, 0.0, 0.0]
+    pts = np.column_stack([length + c * rel[:, 0] + s * rel[:, 2], rel[:, 1], -s * rel[:, 0] + c * rel[:, 2]])
+    pts = pts[pts[:, 2] > 0.03]
+    tip = np.array([length, 0.0, 0.0])
+    heel = np.array([length - c * length, 0.0, s * length])
+    other = np.array([[-0.5, -0.3, 0.0], [-0.24, -0.3, 0.0]])  # the other foot, far away
+    legs = _legs(np.array([heel, other[0]]), np.array([tip, other[1]]))
+    got, measured = measure_toes(legs, pts, camera=CAMERA)
+    assert measured[0]
+    assert abs(got[0, 0] - tip[0]) < 0.01
+    # without the lean correction the toe box's top front reads as the toe, well ahead of the tip
+    plain, _ = measure_toes(legs, pts, camera=CAMERA, fit=ToeFit(pitch_deadband=10.0))
+    assert plain[0, 0] - tip[0] > 0.015

@@ -1,0 +1,123 @@
+"""Toe tips measured from the foreground near each tracked foot.
+
+The particle filter places each foot as the end of a kinematic chain (hip, thigh, calf, ankle): with a
+couple of hundred particles in 23 dimensions it settles a few centimetres from the shoe it sees, and the
+foot's end moves with every error up the chain (segment lengths, hip position).  The shoe itself, seen
+from the walker, is the best-observed part of the leg: the camera looks at the toe box.  So once the
+filter has placed the foot, the toe it reports is measured from the foreground around it:
+
+* the foreground points between ``min_height`` (the segmentation's floor cut) and ``max_height`` above the
+  floor (the shoe; a trouser hem hangs above the toe box, not ahead of it), horizontally within ``radius``
+  of the tracked foot's heel-to-toe line and nearer to it than to the other foot's;
+* along the tracked foot's direction (on the floor) the toe is the ``percentile`` of those points'
+  positions: the front of the toe box; across it, the median of their lateral positions (the shoe's
+  centre line);
+* a foot pitched up on its toes (late stance) leans its toe box forward over the sole's tip: each point's
+  position along the foot is taken back by its height above the tip times the tangent of the tracked foot's
+  heel-up pitch beyond ``pitch_deadband`` (the filter holds flat feet a few degrees heel-up);
+* the toe's height stays the tracked one, and nothing else of the pose moves.
+
+This is done only for a foot that points towards the camera (its toe box faces the lens: a camera on the
+walker looking back at its user), with at least ``min_points`` such points.  The particles are left as they
+are: this changes what the tracker reports, not what it tracks (pulling the particles' toes towards the
+measured ones with a Gaussian prior made the tracking worse: DEVELOPERS.md, twenty-ninth session).
+
+Measured with ``make sweep`` (32 synthetic sessions x 2 tracker seeds, sets C and A; DEVELOPERS.md): toe error
+4.50 / 4.66, 4.35 / 4.76 -> 3.85 / 3.99, 3.71 / 4.10 cm, step length median |error| 2.40 / 2.36, 2.15 / 2.55
+-> 1.27 / 1.23, 1.30 / 1.04 cm and mean 3.52 / 4.04, 3.06 / 4.33 -> 3.11 / 3.13, 2.78 / 3.95 cm.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from walker_gait.core.types import HEEL, TOE
+
+FloatArray = NDArray[np.float64]
+BoolArray = NDArray[np.bool_]
+
+_MAX_PITCH = 0.8  # rad: the heel-up pitch beyond which the toe box's lean is not corrected further
+
+
+@dataclass(frozen=True, kw_only=True)
+class ToeFit:
+    """Parameters of :func:`measure_toes` (metres)."""
+
+    min_height: float = 0.03  # lowest point used: the segmentation's floor cut
+    max_height: float = 0.12  # highest: the shoe (a heel counter is ~10 cm high)
+    radius: float = 0.10  # horizontal distance from the tracked foot's heel-to-toe line
+    percentile: float = 99.0  # of the points' positions along the foot: its front
+    pitch_deadband: float = 0.1  # rad: heel-up pitch of the tracked foot below which it counts as flat
+    min_points: int = 20  # fewer points near a foot leave its toe as tracked
+
+    def __post_init__(self) -> None:
+        if not (0.0 <= self.min_height < self.max_height and self.radius > 0.0):
+            raise ValueError(f"need 0 <= min_height < max_height and radius > 0, got {self.min_height}, "
+                             f"{self.max_height}, {self.radius}")
+        if not self.pitch_deadband >= 0.0:
+            raise ValueError(f"pitch_deadband must be >= 0, got {self.pitch_deadband}")
+        if not 0.0 < self.percentile <= 100.0:
+            raise ValueError(f"percentile must be in (0, 100], got {self.percentile}")
+        if self.min_points < 1:
+            raise ValueError(f"min_points must be >= 1, got {self.min_points}")
+
+
+def _distance_to_segment_xy(q: FloatArray, a: FloatArray, b: FloatArray) -> FloatArray:
+    """Horizontal distance of points ``q`` (N, 3) to the segment ``a``-``b`` projected on the floor."""
+    ab = (b - a)[:2]
+    den = float(ab @ ab)
+    t = np.zeros(q.shape[0]) if den < 1e-12 else np.clip(((q[:, :2] - a[:2]) @ ab) / den, 0.0, 1.0)
+    return np.linalg.norm(q[:, :2] - (a[:2] + t[:, None] * ab), axis=1)
+
+
+def measure_toes(
+    legs: FloatArray, points: FloatArray, *, camera: FloatArray, fit: ToeFit = ToeFit()
+) -> tuple[FloatArray, BoolArray]:
+    """Toe tips measured from the foreground ``points`` near each tracked foot.
+
+    ``legs`` ``(2, 5, 3)``: tracked ``LEG_POINTS`` per side; ``points`` ``(N, 3)``: foreground; ``camera``
+    ``(3,)``: the camera's position; all in one floor-aligned frame (z = height above the floor, metres).
+    Returns the ``(2, 3)`` toes (the tracked ones where nothing was measured) and which sides were measured.
+    """
+    legs = np.asarray(legs, dtype=np.float64)
+    pts = np.asarray(points, dtype=np.float64)
+    if legs.shape != (2, 5, 3) or pts.ndim != 2 or pts.shape[1] != 3:
+        raise ValueError(f"need legs (2, 5, 3) and points (N, 3), got {legs.shape} and {pts.shape}")
+    toes = legs[:, TOE].copy()
+    measured = np.zeros(2, dtype=bool)
+    if not np.all(np.isfinite(legs[:, (HEEL, TOE)])):
+        return toes, measured
+    band = pts[(pts[:, 2] > fit.min_height) & (pts[:, 2] < fit.max_height)]
+    if band.shape[0] < fit.min_points:
+        return toes, measured
+    dist = np.stack([_distance_to_segment_xy(band, legs[s, HEEL], legs[s, TOE]) for s in (0, 1)])
+    cam = np.asarray(camera, dtype=np.float64)
+    for side in (0, 1):
+        heel, toe = legs[side, HEEL], legs[side, TOE]
+        u = (toe - heel)[:2]
+        norm = float(np.linalg.norm(u))
+        if norm < 1e-6:
+            continue
+        u = u / norm
+        if float(u @ (cam[:2] - heel[:2])) <= 0.0:
+            continue  # the foot points away from the camera: its toe box is not what the camera sees
+        near = band[(dist[side] < fit.radius) & (dist[side] < dist[1 - side])]
+        if near.shape[0] < fit.min_points:
+            continue
+        v = np.array([-u[1], u[0]])
+        rel = near[:, :2] - heel[:2]
+        s = rel @ u
+        # a foot up on its toes (late stance) leans its toe box forward over the sole's tip, which stays on the
+        # floor: a point h above the tip lies h tan(pitch) ahead of it (rigid shoe)
+        pitch = math.atan2(float(heel[2] - toe[2]), norm) - fit.pitch_deadband
+        if pitch > 0.0:
+            s = s - np.maximum(near[:, 2] - max(float(toe[2]), 0.0), 0.0) * math.tan(min(pitch, _MAX_PITCH))
+        along = float(np.percentile(s, fit.percentile))
+        across = float(np.median(rel @ v))
+        toes[side, :2] = heel[:2] + along * u + across * v
+        measured[side] = True
+    return toes, measured
