@@ -44,8 +44,8 @@ def _scene(rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray, np.ndarray
 def test_toes_come_from_the_shoes_front() -> None:
     rng = np.random.default_rng(3)
     heels, toes, pts = _scene(rng)
-    # tracked feet: the left one 4 cm short and 2 cm outward, the right one 3 cm long
-    tracked = _legs(heels + [[0.0, 0.02, 0.0], [0.0, 0.0, 0.0]], toes + [[-0.04, 0.02, 0.0], [0.03, 0.0, 0.0]])
+    # tracked feet: the left one 3 cm short and 2 cm outward, the right one 3 cm long
+    tracked = _legs(heels + [[0.0, 0.02, 0.0], [0.0, 0.0, 0.0]], toes + [[-0.03, 0.02, 0.0], [0.03, 0.0, 0.0]])
     got, measured = measure_toes(tracked, pts, camera=CAMERA)
     assert measured.all()
     err = np.linalg.norm(got[:, :2] - toes[:, :2], axis=1)
@@ -60,7 +60,9 @@ def test_other_foot_and_high_points_are_not_the_toe() -> None:
     heels, toes, pts = _scene(rng)
     # a trouser leg hanging in front of the left shoe's upper part, above the shoe band
     hem = np.column_stack([rng.uniform(0.2, 0.34, 200), rng.uniform(0.02, 0.10, 200), rng.uniform(0.13, 0.4, 200)])
-    got, measured = measure_toes(_legs(heels, toes), np.vstack([pts, hem]), camera=CAMERA)
+    # the right leg's baggy trouser hem, swinging past 6-12 cm ahead of the left toe, a few cm above the floor
+    flare = np.column_stack([rng.uniform(0.32, 0.38, 150), rng.uniform(0.02, 0.10, 150), rng.uniform(0.04, 0.09, 150)])
+    got, measured = measure_toes(_legs(heels, toes), np.vstack([pts, hem, flare]), camera=CAMERA)
     assert measured.all()
     # the right shoe reaches 15 cm further forward than the left one: its points must not move the left toe
     assert abs(got[0, 0] - toes[0, 0]) < 0.012
@@ -96,6 +98,10 @@ def test_rejects_bad_input() -> None:
         ToeFit(percentile=0.0)
     with pytest.raises(ValueError, match="min_points"):
         ToeFit(min_points=0)
+    with pytest.raises(ValueError, match="reach"):
+        ToeFit(reach=0.0)
+    with pytest.raises(ValueError, match="pitch_deadband"):
+        ToeFit(pitch_deadband=-0.1)
 
 
 def test_a_foot_on_its_toes_is_measured_at_the_sole_tip() -> None:

@@ -10,7 +10,8 @@ filter has placed the foot, the toe it reports is measured from the foreground a
   floor (the shoe; a trouser hem hangs above the toe box, not ahead of it), horizontally within ``radius``
   of the tracked foot's heel-to-toe line and nearer to it than to the other foot's;
 * along the tracked foot's direction (on the floor) the toe is the ``percentile`` of those points'
-  positions: the front of the toe box; across it, the median of their lateral positions (the shoe's
+  positions, up to ``reach`` ahead of the tracked toe (beyond, the other leg's trouser hem swinging past
+  a foot in its heel rise): the front of the toe box; across it, the median of their lateral positions (the shoe's
   centre line);
 * a foot pitched up on its toes (late stance) leans its toe box forward over the sole's tip: each point's
   position along the foot is taken back by its height above the tip times the tangent of the tracked foot's
@@ -51,6 +52,7 @@ class ToeFit:
     max_height: float = 0.12  # highest: the shoe (a heel counter is ~10 cm high)
     radius: float = 0.10  # horizontal distance from the tracked foot's heel-to-toe line
     percentile: float = 99.0  # of the points' positions along the foot: its front
+    reach: float = 0.04  # points further than this ahead of the tracked toe (along the foot) are not the shoe
     pitch_deadband: float = 0.1  # rad: heel-up pitch of the tracked foot below which it counts as flat
     min_points: int = 20  # fewer points near a foot leave its toe as tracked
 
@@ -58,6 +60,8 @@ class ToeFit:
         if not (0.0 <= self.min_height < self.max_height and self.radius > 0.0):
             raise ValueError(f"need 0 <= min_height < max_height and radius > 0, got {self.min_height}, "
                              f"{self.max_height}, {self.radius}")
+        if not self.reach > 0.0:
+            raise ValueError(f"reach must be > 0, got {self.reach}")
         if not self.pitch_deadband >= 0.0:
             raise ValueError(f"pitch_deadband must be >= 0, got {self.pitch_deadband}")
         if not 0.0 < self.percentile <= 100.0:
@@ -111,6 +115,12 @@ def measure_toes(
         v = np.array([-u[1], u[0]])
         rel = near[:, :2] - heel[:2]
         s = rel @ u
+        # what lies well ahead of the tracked toe is something else: the other leg's trouser hem swinging past
+        # (baggy trousers hang 11 cm around the ankle, down to a few cm above the floor), the other shoe
+        shoe = s < float((toe[:2] - heel[:2]) @ u) + fit.reach
+        if int(shoe.sum()) < fit.min_points:
+            continue
+        near, rel, s = near[shoe], rel[shoe], s[shoe]
         # a foot up on its toes (late stance) leans its toe box forward over the sole's tip, which stays on the
         # floor: a point h above the tip lies h tan(pitch) ahead of it (rigid shoe)
         pitch = math.atan2(float(heel[2] - toe[2]), norm) - fit.pitch_deadband
