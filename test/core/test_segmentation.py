@@ -556,6 +556,45 @@ def test_static_mask_counts_a_view_unchanged_since_it_began_towards_structure() 
         assert sm.static_pixels(z, cand)[box].all() == (i == cfg.frames - 1)
 
 
+def test_static_mask_learns_what_is_in_view_while_no_legs_are() -> None:
+    """Frames whose candidates show no legs (``no_legs``) count in full, moving or not: a walker's wheel in view
+    while its user is away is structure after ``frames`` such frames, before the user arrives; off
+    (``learn_without_legs``), still frames teach only up to ``still_share``."""
+    cfg = StaticMaskConfig(frames=20, grid_stride=2, still_weight=0.2, still_share=0.5)
+    wheel = np.zeros((60, 80), bool)
+    wheel[30:50, 4:16] = True
+    z, cand = _blocks(0)
+    z[~wheel] = 3.0
+    cand &= wheel
+    sm = StaticStructureMask(cfg)
+    for i in range(cfg.frames + 1):  # the first frame (everything new) teaches nothing
+        assert not sm.update(z, cand, no_legs=True)
+        assert sm.static_pixels(z, cand)[wheel].all() == (i == cfg.frames)
+    assert sm.moving_frames == 0
+    off = StaticStructureMask(replace(cfg, learn_without_legs=False))
+    for _ in range(200):
+        off.update(z, cand, no_legs=True)
+    assert not off.learned.any()
+
+
+def test_segmenter_learns_the_walkers_structure_before_its_user_arrives() -> None:
+    """The walker waits with only its cross-bar in view (no legs: nothing above knee height, nothing leaving the
+    image at the top); when the user arrives the bar is gone from the foreground and the legs are all there."""
+    rng = np.random.default_rng(12)
+    cfg = SegmenterConfig(min_part_width=0.0, static_mask=StaticMaskConfig(frames=30))
+    proj = DepthProjector(QVGA)
+    empty = scene_cached((), QVGA)
+    for learn, bar_kept in ((True, lambda q: q < 0.05), (False, lambda q: q > 0.5)):
+        seg = Segmenter(replace(cfg, static_mask=replace(cfg.static_mask, learn_without_legs=learn)), rng=rng,
+                        intrinsics=QVGA)
+        for _ in range(40):
+            depth = noisy_depth(empty, rng)
+            seg.process(depth, proj.points(depth))
+        q = _quality(seg, 1, rng, intrinsics=QVGA)
+        assert bar_kept(q["bar_kept"]), (learn, q)
+        assert q["leg_kept"] >= 0.98
+
+
 def test_static_mask_config_rejects_bad_still_learning() -> None:
     for bad in ({"still_weight": -0.1}, {"still_weight": math.inf}, {"still_share": 1.0}, {"still_share": -0.1}):
         with pytest.raises(ValueError, match="still_"):

@@ -30,6 +30,7 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
+from walker_gait.core.presence import legs_in_view
 from walker_gait.core.types import CameraIntrinsics, FloorPlane
 
 F32 = NDArray[np.float32]
@@ -938,6 +939,12 @@ class StaticMaskConfig:
     still_share: float = 0.67
     """Those still frames may make up at most this share of ``frames``: structure always needs some moving
     frames as well, so a user who stood still from the start is not learned before walking off."""
+    learn_without_legs: bool = True
+    """Frames whose foreground (where the box can reach) shows no legs count as moving frames: nothing rises
+    above knee height or leaves the image through its top border (the tracker's presence test,
+    :func:`walker_gait.core.presence.legs_in_view`), so what is there is not a user but the walker's own structure
+    (a rear wheel waiting with the walker for its user), learned in ``frames`` frames instead of being taken for a
+    pair of legs when the user walks in."""
 
     def validate(self) -> None:
         if not (math.isfinite(self.still_weight) and self.still_weight >= 0):
@@ -974,7 +981,9 @@ class StaticStructureMask:
     ``still_weight`` each and up to ``still_share`` of ``frames``: a walker whose user is still out of
     view shows nothing but its own structure, which is then learned after the first ``frames x (1 -
     still_share)`` moving frames (20 instead of 60) instead of being taken for a pair of legs while the user
-    walks in.
+    walks in; and frames whose candidates show no legs at all (``learn_without_legs``: nothing above knee height,
+    nothing leaving the image through its top border) count in full, moving or not, so structure in view while
+    the user is away is learned before the user arrives.
     """
 
     def __init__(self, config: StaticMaskConfig | None = None) -> None:
@@ -995,10 +1004,11 @@ class StaticStructureMask:
         c = self.config
         return (np.float32(c.tolerance) + np.float32(c.tolerance_per_m2) * z * z).astype(np.float32, copy=False)
 
-    def update(self, depth_m: F32, candidates: BoolArray) -> bool:
+    def update(self, depth_m: F32, candidates: BoolArray, *, no_legs: bool = False) -> bool:
         """Learn from one frame: ``depth_m`` ``(H, W)`` float32 m (NaN invalid), ``candidates`` ``(H, W)`` the
-        pixels that could be foreground (above the floor, in the reach of the region of interest).
-        Returns whether the frame counted as moving."""
+        pixels that could be foreground (above the floor, in the reach of the region of interest); ``no_legs``:
+        the candidates show no legs, so whatever keeps its depth is structure (counts as in a moving frame, with
+        ``learn_without_legs``).  Returns whether the frame counted as moving."""
         s = self.config.grid_stride
         z = depth_m[::s, ::s]
         cand = candidates[::s, ::s]
@@ -1027,6 +1037,8 @@ class StaticStructureMask:
         if moving:
             count[keep] += 1
             self.moving_frames += 1
+        elif no_legs and self.config.learn_without_legs and not first:
+            count[keep] += 1
         elif self.moving_frames == 0 and not first and self.config.still_weight > 0:
             # nothing has moved since the view began: what stays put counts, partly (see still_weight)
             cap = np.float32(self.config.still_share * self.config.frames)
@@ -1207,6 +1219,7 @@ class Segmenter:
         )
         self.roi_shift = 0.0
         """Current lateral shift (m, walker +y) of the ROI box (auto-centring)."""
+        self._no_legs = False  # the last frame's foreground showed no legs (`StaticMaskConfig.learn_without_legs`)
         self.frames = 0
         self.empty_frames = 0
 
@@ -1278,6 +1291,7 @@ class Segmenter:
         cfg = self.config
         roi = cfg.roi
         self.frames += 1
+        no_legs_before, self._no_legs = self._no_legs, False  # a frame that returns early shows no foreground
         if depth_m.ndim != 2 or points.shape != (*depth_m.shape, 3):
             raise ValueError(f"points shape {points.shape} does not match depth shape {depth_m.shape} + (3,)")
         shape = (int(depth_m.shape[0]), int(depth_m.shape[1]))
@@ -1350,7 +1364,8 @@ class Segmenter:
         reach = None if in_reach is None else cand_nf & in_reach
         n_static = 0
         if self.static is not None and reach is not None:
-            self.static.update(z, reach.reshape(shape))
+            # the previous frame's foreground (what the tracker got) showed no legs: see learn_without_legs
+            self.static.update(z, reach.reshape(shape), no_legs=no_legs_before)
             static_px = self.static.static_pixels(z, reach.reshape(shape)).reshape(-1)
             n_static = int(np.count_nonzero(static_px & mask))  # the box's share (the counters add up)
             mask &= ~static_px
@@ -1376,6 +1391,11 @@ class Segmenter:
             self._follow_legs(reach, yw, h, zf)
         fg = _select_rows(pts, mask)
         n_fg = int(fg.shape[0])
+        self._no_legs = False
+        if self.static is not None and cfg.static_mask.learn_without_legs and self.intrinsics is not None \
+                and h is not None and floor.valid:
+            self._no_legs = not legs_in_view(h[mask], np.where(mask.reshape(shape), z, np.float32(np.nan)),
+                                             up=floor.normal, intrinsics=self.intrinsics)
         return Segmentation(
             mask=mask.reshape(shape),
             points=fg,

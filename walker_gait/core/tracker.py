@@ -101,6 +101,7 @@ from numpy.typing import NDArray
 
 from walker_gait.core import leg_model as lm
 from walker_gait.core.feet import ToeFit, measure_toes
+from walker_gait.core.presence import PresenceTest, legs_in_view
 from walker_gait.core.leg_model import BodyFrame, Kinematics, StateLayout
 from walker_gait.core.likelihood import (
     PAPER_LAMBDA_2D,
@@ -664,34 +665,9 @@ class LegTracker:
         cfg = self.config
         if cfg.presence_height <= 0:
             return True
-        h = floor.height(points)
-        if np.count_nonzero(h > cfg.presence_height) >= max(10.0, cfg.presence_share * h.shape[0]):
-            return True
-        return self._border_width(depth_fg, floor) >= cfg.presence_width
-
-    def _border_width(self, depth_fg: NDArray[np.floating], floor: FloorPlane) -> float:
-        """Width (m) of the widest foreground part in the band along the image border that is "up"."""
-        intr = self.intrinsics
-        p0 = np.array([0.0, 0.0, 1.0])
-        uv = intr.project(np.stack([p0, p0 + 0.1 * np.asarray(floor.normal, dtype=np.float64)]))
-        du, dv = uv[1] - uv[0]  # image direction of "up" at the optical axis
-        h, w = depth_fg.shape
-        if abs(dv) >= abs(du):
-            b = max(1, int(round(self.config.presence_band * h)))
-            band, focal = (depth_fg[:b] if dv <= 0 else depth_fg[h - b :]), intr.fx
-            axis = 0
-        else:
-            b = max(1, int(round(self.config.presence_band * w)))
-            band, focal = (depth_fg[:, :b] if du <= 0 else depth_fg[:, w - b :]), intr.fy
-            axis = 1
-        with np.errstate(invalid="ignore"):
-            z = np.where(np.isfinite(band) & (band > 0), band, np.inf).min(axis=axis)
-        occupied = np.isfinite(z)
-        if not occupied.any():
-            return 0.0
-        edges = np.flatnonzero(np.diff(np.concatenate([[0], occupied.view(np.int8), [0]])))
-        return max(float((stop - start) * np.median(z[start:stop]) / focal)
-                   for start, stop in zip(edges[::2], edges[1::2], strict=True))
+        test = PresenceTest(height=cfg.presence_height, share=cfg.presence_share, band=cfg.presence_band,
+                            width=cfg.presence_width)
+        return legs_in_view(floor.height(points), depth_fg, up=floor.normal, intrinsics=self.intrinsics, test=test)
 
     def _empty_pose(self, stamp: float) -> LegPose:
         return LegPose(
