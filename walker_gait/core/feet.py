@@ -24,8 +24,8 @@ are: this changes what the tracker reports, not what it tracks (pulling the part
 measured ones with a Gaussian prior made the tracking worse: DEVELOPERS.md, twenty-ninth session).
 
 Measured with ``make sweep`` (32 synthetic sessions x 2 tracker seeds, sets C and A; DEVELOPERS.md): toe error
-4.50 / 4.66, 4.35 / 4.76 -> 3.85 / 3.99, 3.71 / 4.10 cm, step length median |error| 2.40 / 2.36, 2.15 / 2.55
--> 1.27 / 1.23, 1.30 / 1.04 cm and mean 3.52 / 4.04, 3.06 / 4.33 -> 3.11 / 3.13, 2.78 / 3.95 cm.
+4.50 / 4.66, 4.35 / 4.76 -> 3.77 / 3.91, 3.63 / 4.04 cm, step length median |error| 2.40 / 2.36, 2.15 / 2.55
+-> 1.22 / 1.26, 1.26 / 1.07 cm and mean 3.52 / 4.04, 3.06 / 4.33 -> 2.91 / 3.23, 2.94 / 3.87 cm.
 """
 
 from __future__ import annotations
@@ -74,8 +74,10 @@ def _distance_to_segment_xy(q: FloatArray, a: FloatArray, b: FloatArray) -> Floa
     """Horizontal distance of points ``q`` (N, 3) to the segment ``a``-``b`` projected on the floor."""
     ab = (b - a)[:2]
     den = float(ab @ ab)
-    t = np.zeros(q.shape[0]) if den < 1e-12 else np.clip(((q[:, :2] - a[:2]) @ ab) / den, 0.0, 1.0)
-    return np.linalg.norm(q[:, :2] - (a[:2] + t[:, None] * ab), axis=1)
+    rel = q[:, :2] - a[:2]
+    t = np.zeros(q.shape[0]) if den < 1e-12 else np.clip((rel @ ab) / den, 0.0, 1.0)
+    d = rel - t[:, None] * ab
+    return np.sqrt(np.einsum("ij,ij->i", d, d))
 
 
 def measure_toes(
@@ -95,7 +97,13 @@ def measure_toes(
     measured = np.zeros(2, dtype=bool)
     if not np.all(np.isfinite(legs[:, (HEEL, TOE)])):
         return toes, measured
-    band = pts[(pts[:, 2] > fit.min_height) & (pts[:, 2] < fit.max_height)]
+    # the shoe band, within the feet's horizontal reach (a box around both heel-to-toe lines: cheap, and most of
+    # the foreground, the shins above, is gone before the distances)
+    ends = legs[:, (HEEL, TOE), :2].reshape(-1, 2)
+    lo, hi = ends.min(axis=0) - fit.radius - fit.reach, ends.max(axis=0) + fit.radius + fit.reach
+    z = pts[:, 2]
+    band = pts[(z > fit.min_height) & (z < fit.max_height)]
+    band = band[np.all((band[:, :2] > lo) & (band[:, :2] < hi), axis=1)]
     if band.shape[0] < fit.min_points:
         return toes, measured
     dist = np.stack([_distance_to_segment_xy(band, legs[s, HEEL], legs[s, TOE]) for s in (0, 1)])

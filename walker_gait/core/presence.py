@@ -59,13 +59,19 @@ def border_width(depth_fg: NDArray[np.floating], *, up: NDArray[np.floating], in
                for start, stop in zip(edges[::2], edges[1::2], strict=True))
 
 
+def legs_above(heights: NDArray[np.floating], test: PresenceTest = PresenceTest()) -> bool:
+    """The height half of :func:`legs_in_view`: at least ``test.share`` of the points (and 10) higher than
+    ``test.height`` above the floor."""
+    h = np.asarray(heights)
+    return bool(np.count_nonzero(h > test.height) >= max(10.0, test.share * h.shape[0]))
+
+
 def legs_in_view(heights: NDArray[np.floating], depth_fg: NDArray[np.floating], *, up: NDArray[np.floating],
                  intrinsics: CameraIntrinsics, test: PresenceTest = PresenceTest()) -> bool:
     """Whether the foreground shows legs: at least ``test.share`` of its points (and 10) higher than
     ``test.height`` above the floor (``heights``: ``(N,)``, one per foreground point), or a part at least
     ``test.width`` wide (metres, at its depth) in the ``test.band`` of the image along the border that is "up"
     (:func:`border_width`: the top rows for an upright camera, the bottom rows for one mounted upside down)."""
-    h = np.asarray(heights)
-    if np.count_nonzero(h > test.height) >= max(10.0, test.share * h.shape[0]):
+    if legs_above(heights, test):
         return True
     return border_width(depth_fg, up=up, intrinsics=intrinsics, band=test.band) >= test.width

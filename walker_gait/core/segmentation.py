@@ -30,7 +30,7 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
-from walker_gait.core.presence import legs_in_view
+from walker_gait.core.presence import legs_above, legs_in_view
 from walker_gait.core.types import CameraIntrinsics, FloorPlane
 
 F32 = NDArray[np.float32]
@@ -1394,8 +1394,10 @@ class Segmenter:
         self._no_legs = False
         if self.static is not None and cfg.static_mask.learn_without_legs and self.intrinsics is not None \
                 and h is not None and floor.valid:
-            self._no_legs = not legs_in_view(h[mask], np.where(mask.reshape(shape), z, np.float32(np.nan)),
-                                             up=floor.normal, intrinsics=self.intrinsics)
+            heights = h[mask]  # the height test first: it settles most frames without the foreground image
+            self._no_legs = not (legs_above(heights) or legs_in_view(
+                heights, np.where(mask.reshape(shape), z, np.float32(np.nan)), up=floor.normal,
+                intrinsics=self.intrinsics))
         return Segmentation(
             mask=mask.reshape(shape),
             points=fg,

@@ -273,10 +273,12 @@ class TrackerConfig:
         if not (self.foot_roll_prior_sigma > 0 and self.foot_pitch_prior_sigma > 0 and self.feet_crossing_sigma > 0):
             raise ValueError("foot_pitch_prior_sigma, foot_roll_prior_sigma and feet_crossing_sigma must be > 0 "
                              "(inf = no prior)")
-        if not (self.presence_height >= 0 and 0 <= self.presence_share <= 1 and 0 < self.presence_band <= 0.5
-                and self.presence_width >= 0):
-            raise ValueError("presence_height and presence_width must be >= 0, presence_share in [0, 1] and "
-                             "presence_band in (0, 0.5]")
+        self.presence_test()  # validates the presence_* fields
+
+    def presence_test(self) -> PresenceTest:
+        """The ``presence_*`` fields as the thresholds of :func:`walker_gait.core.presence.legs_in_view`."""
+        return PresenceTest(height=self.presence_height, share=self.presence_share, band=self.presence_band,
+                            width=self.presence_width)
 
     def noise_vector(self) -> FloatArray:
         """Per-element diffusion std-devs ``(23,)``."""
@@ -532,6 +534,8 @@ class LegTracker:
             occlusion_aware=config.occlusion_aware,
         )
         self._floor_clip = np.array([False, False, True] * 2)
+        self._presence = config.presence_test()
+        self._toe_fit = ToeFit(min_height=config.fg_min_height)
         self._work = Workspace()  # likelihood scratch buffers, reused across frames
         self.reset()
 
@@ -665,9 +669,8 @@ class LegTracker:
         cfg = self.config
         if cfg.presence_height <= 0:
             return True
-        test = PresenceTest(height=cfg.presence_height, share=cfg.presence_share, band=cfg.presence_band,
-                            width=cfg.presence_width)
-        return legs_in_view(floor.height(points), depth_fg, up=floor.normal, intrinsics=self.intrinsics, test=test)
+        return legs_in_view(floor.height(points), depth_fg, up=floor.normal, intrinsics=self.intrinsics,
+                            test=self._presence)
 
     def _empty_pose(self, stamp: float) -> LegPose:
         return LegPose(
@@ -1064,8 +1067,7 @@ class LegTracker:
             self._footprints.update(stamp, pts_body, seen, release_s=self.config.footprint_release_s)
         if self.config.toe_from_data:
             camera = frame.body.to_body(np.zeros(3))
-            toes, _ = measure_toes(pts_body, frame.fg_all_body, camera=camera,
-                                   fit=ToeFit(min_height=self.config.fg_min_height))
+            toes, _ = measure_toes(pts_body, frame.fg_all_body, camera=camera, fit=self._toe_fit)
             pts_body = pts_body.copy()
             pts_body[:, TOE] = toes
         pose = LegPose(
