@@ -106,7 +106,10 @@ def stamp_to_ns(stamp: Any) -> int:
 
 
 def stamp_to_s(stamp: Any) -> float:
-    return float(stamp.sec) + float(stamp.nanosec) * 1e-9
+    """Seconds of a ``builtin_interfaces/Time``, as the recording readers compute them (integer nanoseconds / 1e9):
+    the live nodes and the offline pipeline must see the very same float for a frame, or a window edge that falls
+    on a frame's stamp (the gait analyzer's fits) can take that frame in one and leave it out in the other."""
+    return (int(stamp.sec) * 1_000_000_000 + int(stamp.nanosec)) / 1e9
 
 
 def make_time(t: float | int, *, ns: bool = False) -> Any:
