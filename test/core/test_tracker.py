@@ -277,7 +277,9 @@ def _one_leg_then_two(n_one: int, n_two: int):  # noqa: ANN202
 
 def test_redetects_when_the_second_leg_enters_view() -> None:
     """A track started on one visible leg puts both model legs on it; once the other leg enters the view,
-    the unexplained foreground (``min_explained``) triggers a re-detection that finds both legs."""
+    the unexplained foreground (``min_explained``) triggers a re-detection that finds both legs.  The track is
+    started at once here (``single_leg_wait_s`` 0: as when the other leg stays out of view longer than the wait;
+    with the default wait of 1 s this 0.4 s one-leg view does not start a track at all)."""
     frames = _one_leg_then_two(12, 36)
 
     def late_error(min_explained: float) -> float:
@@ -285,7 +287,8 @@ def test_redetects_when_the_second_leg_enters_view() -> None:
         # second leg anyway
         err = []
         for seed in (0, 1):
-            tracker = LegTracker(preset("default", min_explained=min_explained), KINECT, rng=np.random.default_rng(seed))
+            tracker = LegTracker(preset("default", min_explained=min_explained, single_leg_wait_s=0.0), KINECT,
+                                 rng=np.random.default_rng(seed))
             poses = _run(tracker, frames)
             e = [np.linalg.norm(p.points - f.gt, axis=-1)[:, 2:].mean() for p, f in zip(poses, frames)]
             err.append(np.mean(e[12 + DEFAULT.lost_frames + 10:]))  # ankle, heel, toe, once re-detected
@@ -872,3 +875,39 @@ def test_presence_config_is_validated() -> None:
     for bad in ({"presence_height": -0.1}, {"presence_share": 1.5}, {"presence_band": 0.0}, {"presence_width": -1.0}):
         with pytest.raises(ValueError):
             preset("default", **bad)
+
+
+def test_a_new_track_waits_for_the_second_leg() -> None:
+    """A user walking in shows one leg first (the other still outside the region of interest): with
+    ``single_leg_wait_s`` a new track waits (SEARCHING, no pose) until the foreground shows two legs, or until the
+    wait is over (a leg hidden behind the other from the start); without it, it starts on the one leg at once."""
+    import dataclasses
+
+    from walker_gait.bench.tracker import render_frame
+
+    floor = FloorPlane.from_camera_pose(height=0.70, pitch=0.50)
+    fr = render_frame(_standing(1)[0], intrinsics=KINECT, floor=floor, mounting="facing_user",
+                      rng=np.random.default_rng(1))
+    both = fr.points.astype(np.float64)
+    right = both[lm.BodyFrame.from_floor(floor, mounting="facing_user").to_body(both)[:, 1] < 0.0]
+    right_depth = _depth_image(right, KINECT)
+    assert 0.2 * len(both) < len(right) < 0.8 * len(both)
+    cfg = preset("default", n_particles=32, init_rounds=1, single_leg_wait_s=0.2)
+
+    def tracker(wait: float) -> LegTracker:
+        return LegTracker(dataclasses.replace(cfg, single_leg_wait_s=wait), KINECT, rng=np.random.default_rng(0))
+
+    tr = tracker(0.2)
+    for k in range(6):  # one leg for 0.17 s: waiting
+        pose = tr.update(stamp=k / 30, points=right, depth_fg=right_depth, floor=floor)
+        assert pose.status == TrackStatus.SEARCHING and not np.isfinite(pose.points).any() and tr.particles is None
+    tr.update(stamp=6 / 30, points=both, depth_fg=fr.depth, floor=floor)  # the second leg is in: the track starts
+    assert tr.particles is not None
+    tr = tracker(0.2)
+    for k in range(7):  # one leg all along: the track starts on it once the wait is over
+        tr.update(stamp=k / 30, points=right, depth_fg=right_depth, floor=floor)
+        assert (tr.particles is None) == (k / 30 < 0.2)
+    tr = tracker(0.0)
+    tr.update(stamp=0.0, points=right, depth_fg=right_depth, floor=floor)
+    assert tr.particles is not None
+    assert DEFAULT.single_leg_wait_s > 0 and PAPER.single_leg_wait_s == 0

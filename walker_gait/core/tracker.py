@@ -160,6 +160,7 @@ _FLOOR_MAX_SPEED = 2.5  # m/s: a planted toe moving faster between two frames is
 
 Cue = Literal["3d", "2d", "combined"]
 
+_SINGLE_LEG_SEP = 0.09  # m: leg blobs' centres closer than this are one leg split in two (shins are ~10 cm wide)
 _VIS_POINTS = 10  # interior axis points per segment sampled by the visibility test
 _UNSUPPORTED_MAX = 0.1  # a leg's calf + foot with at most this share of their counted axis points seen or hidden lie over nothing
 
@@ -241,6 +242,7 @@ class TrackerConfig:
     lost_confidence: float = 0.25  # below this for `lost_frames` frames: re-initialise
     lost_frames: int = 8
     min_explained: float = 0.0  # fraction of foreground the estimate must explain; below it for `lost_frames` frames: re-initialise (0 = off)
+    single_leg_wait_s: float = 0.0  # s a new track waits while its foreground shows one leg (a user walking in: the other leg still outside the region of interest) before it starts on it anyway (0 = start at once, paper)
     lost_leg_frames: int = 0  # frames a leg's calf and foot may lie over nothing (out of the image or over background, nothing in front of them) before the track re-initialises (0 = off)
     support_tol: float = 0.04  # m, surface distance counted as support for the confidence
     fg_min_height: float = 0.03  # m, floor cut of the segmentation (model surface below it is unobservable)
@@ -333,6 +335,7 @@ DEFAULT = TrackerConfig(
     init_rounds=6,
     min_explained=0.75,
     lost_leg_frames=6,
+    single_leg_wait_s=1.0,
     hidden_search_share=0.25,
     hidden_velocity_damping=0.0,
     coast_frames=15,
@@ -550,6 +553,8 @@ class LegTracker:
         self._low_conf = 0
         self._unsupported_run = np.zeros(2, dtype=int)  # consecutive frames each leg's lower segments lay over nothing
         self._frames_tracked = 0
+        self._fresh = True  # no track since the last reset (`single_leg_wait_s` applies)
+        self._wait_start = math.nan
         self._unexplained_run = 0  # frames in a row whose estimate left `hidden_search_unexplained` of the foreground unexplained
         self._hidden = _HiddenState()
         self._footprints = _Footprints()
@@ -615,8 +620,17 @@ class LegTracker:
         frame = self._prepare(pts, depth, floor)
         self._stamp = float(stamp)
         searching = False
+        if self._x is None and self._fresh and cfg.single_leg_wait_s > 0:
+            c = self._leg_blobs(frame)[1]
+            if c[1] - c[0] < _SINGLE_LEG_SEP:
+                if math.isnan(self._wait_start):
+                    self._wait_start = float(stamp)
+                if float(stamp) - self._wait_start < cfg.single_leg_wait_s:
+                    self.status = TrackStatus.SEARCHING
+                    return dataclasses.replace(self._empty_pose(stamp), status=TrackStatus.SEARCHING)
         if self._x is None:
             self._initialise(frame)
+            self._fresh = False
             searching = True
         else:
             self._step(frame)
@@ -976,8 +990,9 @@ class LegTracker:
         return out
 
     # -- initialisation -----------------------------------------------------------
-    def _detect(self, frame: _Frame) -> FloatArray:
-        """A standing-pose state fitted to the two leg blobs of the foreground (body frame)."""
+    def _leg_blobs(self, frame: _Frame) -> tuple[FloatArray, FloatArray]:
+        """The foreground points (body frame) that tell the two legs apart, and the two centres (right, left) of a
+        2-means clustering of their lateral positions."""
         pb = frame.fg_all_body
         # shins and knees (0.25-0.7 m above the floor) separate the two legs best and leave out what
         # lies low on the floor: feet together, a walker's wheels, a bag; feet-only views fall back.  A camera
@@ -996,6 +1011,12 @@ class LegTracker:
             if lab.all() or (~lab).all():
                 break
             c = np.array([y[~lab].mean(), y[lab].mean()])
+        return sel, c
+
+    def _detect(self, frame: _Frame) -> FloatArray:
+        """A standing-pose state fitted to the two leg blobs of the foreground (body frame)."""
+        sel, c = self._leg_blobs(frame)
+        y = sel[:, 1]
         mid = 0.5 * (c[0] + c[1])
         sep = float(np.clip(c[1] - c[0], 0.14, 0.26))
         y_right, y_left = mid - 0.5 * sep, mid + 0.5 * sep
