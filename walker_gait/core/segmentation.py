@@ -1391,7 +1391,6 @@ class Segmenter:
             self._follow_legs(reach, yw, h, zf)
         fg = _select_rows(pts, mask)
         n_fg = int(fg.shape[0])
-        self._no_legs = False
         if self.static is not None and cfg.static_mask.learn_without_legs and self.intrinsics is not None \
                 and h is not None and floor.valid:
             heights = h[mask]  # the height test first: it settles most frames without the foreground image
