@@ -34,6 +34,7 @@ from walker_gait.core.gait import (
     GaitSummaryData,
     _hinge_time,
     _rot2,
+    fitted_step_time,
     summarize_steps,
 )
 from walker_gait.core.types import HEEL, TOE, EventKind, FloatArray, FloorPlane, LegPose, Side, Step, TrackStatus
@@ -274,9 +275,9 @@ def test_summary_times_include_doubted_steps_so_heel_strike_errors_cancel() -> N
     """A step's time is its heel strike's, whatever the doubt on its footprint: the temporal statistics pool the
     steps down to ``summary_min_time_confidence`` (0.25), the spatial ones from ``summary_min_confidence`` (0.5).
     Heel strikes every 0.6 s, the fifth timed 0.1 s late (its step 0.7 s, the next 0.5 s) and doubted
-    (confidence 0.4, 20 cm too long): the late strike cancels in the cadence (100 steps/min exactly); left out
-    with its step, the next step's 0.5 s would raise it to 102.1.  A step below 0.25 (implausible geometry) is
-    left out of both."""
+    (confidence 0.4, 20 cm too long): the late strike all but cancels in the cadence (99.6 steps/min; exactly 100
+    with the mean step time); left out with its step, the next step's 0.5 s would raise it above 101.5 (102.1 with
+    the mean step time).  A step below 0.25 (implausible geometry) is left out of both."""
     nan = math.nan
     times = [0.6 * k for k in range(10)]
     times[5] += 0.1
@@ -287,18 +288,22 @@ def test_summary_times_include_doubted_steps_so_heel_strike_errors_cancel() -> N
     cfg = GaitConfig()
     assert (cfg.summary_min_time_confidence, cfg.summary_min_confidence) == (0.25, 0.5)
     s = summarize_steps(steps, min_confidence=0.5, min_time_confidence=0.25)
-    assert s.cadence == pytest.approx(100.0) and s.step_time_mean == pytest.approx(0.6)
+    assert s.cadence == pytest.approx(100.0, abs=0.5) and s.step_time_mean == pytest.approx(0.6)
+    assert summarize_steps(steps, min_confidence=0.5, min_time_confidence=0.25, fit_step_rate=False).cadence == (
+        pytest.approx(100.0))
     assert s.step_length_mean == pytest.approx(0.5)  # the doubted step's length is not pooled
     assert s.gait_speed == pytest.approx(sum(0.5 for k in range(1, 10) if k != 5) / sum(
         times[k] - times[k - 1] for k in range(1, 10) if k != 5))
-    old = summarize_steps(steps, min_confidence=0.5)  # time cut = spatial cut
-    assert old.cadence == pytest.approx(60.0 / ((0.6 * 7 + 0.5) / 8))  # 102.1
+    old = summarize_steps(steps, min_confidence=0.5)  # time cut = spatial cut: the run of strikes is broken
+    assert old.cadence > 101.5
+    assert summarize_steps(steps, min_confidence=0.5, fit_step_rate=False).cadence == pytest.approx(
+        60.0 / ((0.6 * 7 + 0.5) / 8))  # 102.1 from the mean step time
     steps[5] = replace(steps[5], confidence=0.2)
     assert summarize_steps(steps, min_confidence=0.5, min_time_confidence=0.25).cadence == pytest.approx(old.cadence)
     # the analyzer's summary uses both cuts
     ga = GaitAnalyzer(GaitConfig())
     ga._steps = [replace(st, confidence=0.4 if k == 5 else 1.0) for k, st in enumerate(steps)]
-    assert ga.summary().cadence == pytest.approx(100.0)
+    assert ga.summary().cadence == pytest.approx(s.cadence)
     for bad in ({"summary_min_time_confidence": 0.6}, {"summary_min_time_confidence": -0.1},
                 {"summary_min_confidence": 1.5, "summary_min_time_confidence": 0.5}):
         with pytest.raises(GaitInputError):
@@ -319,7 +324,8 @@ def test_summary_skips_step_times_that_span_a_missed_footfall() -> None:
 
     times = [0.6 * k for k in range(12) if k not in (5, 6)]
     steps = steps_at(times)
-    assert summarize_steps(steps).cadence == pytest.approx(60.0 * 9 / (0.6 * 11))  # 81.8: off
+    assert summarize_steps(steps, fit_step_rate=False).cadence == pytest.approx(60.0 * 9 / (0.6 * 11))  # 81.8: off
+    assert summarize_steps(steps).cadence < 95.0  # the fitted rate counts the long step as one step too
     s = summarize_steps(steps, max_step_time_ratio=1.8)
     assert s.cadence == pytest.approx(100.0) and s.gait_speed == pytest.approx(0.5 / 0.6)
     ga = GaitAnalyzer(GaitConfig())
@@ -330,6 +336,60 @@ def test_summary_skips_step_times_that_span_a_missed_footfall() -> None:
     for bad in (1.0, math.nan):
         with pytest.raises(GaitInputError, match="summary_max_step_time_ratio"):
             GaitConfig(summary_max_step_time_ratio=bad)
+
+
+def _steps_at(times: list[float]) -> list[Step]:
+    nan = math.nan
+    return [Step(stamp=t, side=Side(k % 2), index=k, step_length=0.5, step_width=0.1,
+                 step_time=t - times[k - 1] if k else nan, stride_length=nan, stride_time=nan, stance_time=nan,
+                 swing_time=nan, single_support_time=nan, double_support_time=nan) for k, t in enumerate(times)]
+
+
+@pytest.mark.parametrize("n", [1, 2, 3, 4, 8, 9])
+def test_fitted_step_time_of_even_strikes_is_the_step_time(n: int) -> None:
+    times = [1.0 + 0.55 * k for k in range(n + 1)]
+    steps = _steps_at(times)
+    assert fitted_step_time(steps) == pytest.approx(0.55)
+    assert summarize_steps(steps).cadence == pytest.approx(summarize_steps(steps, fit_step_rate=False).cadence)
+
+
+@pytest.mark.parametrize("n", [4, 5, 8, 9])
+def test_fitted_step_time_of_an_asymmetric_gait(n: int) -> None:
+    """Steps alternating 0.7 and 0.5 s: with an offset for every other strike the fit reproduces the mean step
+    time exactly (0.62 s for 5 steps), and with the first strike 0.05 s late it errs less than the mean."""
+    times = [0.6 * k + (0.1 if k % 2 else 0.0) for k in range(n + 1)]
+    steps = _steps_at(times)
+    exact = summarize_steps(steps, fit_step_rate=False).step_time_mean
+    assert exact == pytest.approx((0.6 * n + (0.1 if n % 2 else 0.0)) / n)  # 0.62 s for 5 steps
+    assert fitted_step_time(steps) == pytest.approx(exact)
+    times[0] += 0.05
+    steps = _steps_at(times)
+    fit_err = abs(fitted_step_time(steps) - exact)
+    assert fit_err < abs(summarize_steps(steps, fit_step_rate=False).step_time_mean - exact)
+
+
+@pytest.mark.parametrize("n", [4, 6, 8, 9, 12])
+def test_fitted_step_time_reduces_the_error_of_a_late_first_strike(n: int) -> None:
+    """The first heel strike of a run (after a stop, a gap) timed 0.1 s late: the mean step time rests on it and
+    its run's last strike alone (error 0.1 / n); the fit weighs every strike (errors 0.80, 0.64, 0.53, 0.60 and
+    0.40 times the mean's for 4, 6, 8, 9 and 12 steps)."""
+    times = [0.6 * k for k in range(n + 1)]
+    times[0] += 0.1
+    steps = _steps_at(times)
+    mean_err = abs(summarize_steps(steps, fit_step_rate=False).step_time_mean - 0.6)
+    assert mean_err == pytest.approx(0.1 / n)
+    assert abs(fitted_step_time(steps) - 0.6) <= (0.85 if n < 8 else 0.65) * mean_err
+
+
+def test_fitted_step_time_pools_unbroken_runs_by_their_steps() -> None:
+    """Two runs of heel strikes (a step whose previous strike is not the last one kept starts a new run): 4 steps
+    of 0.5 s and 6 of 0.8 s give (4 x 0.5 + 6 x 0.8) / 10 = 0.68 s; steps without a step time are ignored."""
+    first = _steps_at([0.5 * k for k in range(5)])
+    second = _steps_at([10.0 + 0.8 * k for k in range(7)])
+    assert fitted_step_time(first + second) == pytest.approx(0.68)
+    assert fitted_step_time(second[::-1] + first[::-1]) == pytest.approx(0.68)  # order does not matter
+    assert math.isnan(fitted_step_time([]))
+    assert math.isnan(fitted_step_time(first[:1]))  # a first step has no step time
 
 
 def test_a_step_after_a_same_side_step_has_no_step_time() -> None:
@@ -547,7 +607,7 @@ def test_stop_and_go_resumes_cleanly() -> None:
     assert not [e for e in ga.events if t_stop0 + 0.3 < e.stamp < t_stop1 - 1.0]
     # the first step after the stop includes the pause: excluded from cadence
     s = ga.summary()
-    assert abs(s.cadence - summarize_steps(sim.steps).cadence) / s.cadence < 0.02
+    assert abs(s.cadence - summarize_steps(sim.steps, fit_step_rate=False).cadence) / s.cadence < 0.02
     assert 60.0 / s.cadence == pytest.approx(0.6, rel=0.03)
 
 
@@ -725,7 +785,7 @@ def test_summary_mirrors_message_and_is_json() -> None:
     assert 0 < w.step_count < s.step_count
     d = json.loads(json.dumps(s.to_dict(), allow_nan=False))
     assert d["step_count"] == s.step_count and len(d["stance_percent_side"]) == 2
-    gt = summarize_steps(sim.steps)
+    gt = summarize_steps(sim.steps, fit_step_rate=False)
     assert s.cadence == pytest.approx(gt.cadence, rel=0.02)
     assert s.gait_speed == pytest.approx(gt.gait_speed, rel=0.02)
     assert s.step_width_mean == pytest.approx(0.16, abs=0.01)

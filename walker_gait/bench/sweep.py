@@ -266,13 +266,14 @@ def _step_errors(runs: list[SessionRun]) -> dict[str, float]:
 def _summary_errors(runs: list[SessionRun]) -> dict[str, float]:
     """Mean over the runs of the absolute cadence and gait speed errors (%) of the session summary a clinician
     reads (``summarize_steps`` of the detected steps with the analyzer's confidence cuts) against the same summary
-    of the true steps."""
+    of the true steps, whose cadence is the walkway's definition (60 / their mean step time)."""
     from walker_gait.core.gait import GaitConfig, summarize_steps
 
     cfg = GaitConfig()
     errs: dict[str, list[float]] = {"cadence": [], "speed": []}
     for r in runs:
-        true = summarize_steps(r.gt, max_step_time_s=cfg.max_step_time_s, max_step_time_ratio=cfg.summary_max_step_time_ratio)
+        true = summarize_steps(r.gt, max_step_time_s=cfg.max_step_time_s, max_step_time_ratio=cfg.summary_max_step_time_ratio,
+                              fit_step_rate=False)
         det = summarize_steps(r.det, max_step_time_s=cfg.max_step_time_s, min_confidence=cfg.summary_min_confidence,
                               max_step_time_ratio=cfg.summary_max_step_time_ratio,
                               min_time_confidence=cfg.summary_min_time_confidence)
