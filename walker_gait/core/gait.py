@@ -78,6 +78,7 @@ __all__ = [
 
 _H, _T = 0, 1  # heel / toe index in the internal (2 feet, 2 points) arrays
 _HINGE_POWERS = (1.0, 1.5, 2.0, 3.0)
+_MAX_DRIFT_SPEED = 2.0  # m/s: faster than a walker user walks; a planted foot's drift beyond it is a bad fit
 
 
 class GaitInputError(ValueError):
@@ -184,6 +185,13 @@ class GaitConfig:
     toe for the step vector where the tracker reports that foot hidden (0 = always the raw positions)."""
     planted_fit_window_s: float = 1.5
     """History (s, bounded by that foot's own heel strike) the planted-foot fit may use."""
+    planted_drift_ramp: bool = True
+    """The planted-foot fit's drift (the walker's motion past the planted foot) changes linearly from the trailing
+    foot's own fitted drift to the landing foot's, fitted over its flat frames after its heel strike (both feet
+    are planted then, and drift alike), instead of staying at the trailing foot's: a walker that speeds up
+    (gait initiation) moves a hidden trailing foot further than its earlier drift says.  On the tracked poses
+    of ``make sweep`` (tracker seeds 0 / 1; false -> true): step length MAE 3.01 / 2.98 -> 2.86 / 2.84 cm (set
+    C), 2.69 / 3.32 -> 2.54 / 3.11 (A), 2.55 / 3.86 -> 2.48 / 3.73 (B)."""
     landing_toe_fit_s: float = 0.3
     """Time (s) after the double support over which the landing foot's toe, in the frames in which that foot is
     flat, gives its footprint for the step vector (toe to toe; the camera sees the toes, the heels are hidden
@@ -1161,7 +1169,8 @@ class GaitAnalyzer:
             self._pending_steps[-1].t_end = self._feet[b].to[-1]
         self._feet[a].hs.append(t_hs)
 
-    def _planted_toe(self, idx: NDArray[np.intp], f: int, t_from: float, *, fit_only: bool = False) -> FloatArray:
+    def _planted_toe(self, idx: NDArray[np.intp], f: int, t_from: float, *, fit_only: bool = False,
+                     late_drift: tuple[FloatArray, float] | None = None) -> FloatArray:
         """``(len(idx), 2)`` xy (walker frame) of the toe of planted foot ``f`` at frames ``idx``.
 
         While a foot is planted, its points drift through the walker frame only with the walker's smooth motion.  Late in
@@ -1175,6 +1184,9 @@ class GaitAnalyzer:
         foot's visibility at that frame: a foot in view keeps its raw position, poses without visibility
         count as in view.  With ``fit_only`` the fit alone (frames at which the foot is known to be off the
         floor already: its raw position is no footprint).  Raw positions when the fit is off or has too little data.
+        ``late_drift`` ``(v, t)``: the drift velocity (xy, m/s) of the walker frame past planted feet at time ``t``,
+        later than the fit's data (from the landing foot); the fitted drift then changes linearly in time from
+        the fit's own slope, at the centre of its data, to ``v`` at ``t``, and the fit follows that ramp.
         """
         series = self._raw[:, f, _T, :2]
         raw = series[idx]
@@ -1203,6 +1215,13 @@ class GaitAnalyzer:
                 continue
             slope = (w * (dt - mt)) @ (xy - mean) / (sw * var)
             out[i] = mean - mt * slope  # value at dt = 0
+            if late_drift is not None:
+                # drift ramping from `slope` at the data's centre (time t_k + mt) to v at t: integrated from the
+                # centre to the frame (-mt), the linear value gains (v - slope) mt^2 / (2 span)
+                v, t_v = late_drift
+                span = t_v - (float(self._t[k]) + mt)
+                if span > 1e-3:
+                    out[i] += (v - slope) * (mt * mt / (2.0 * span))
         if fit_only:
             return out
         alpha = self._vis[idx, f][:, None] ** 2  # a fully seen foot keeps its raw position
@@ -1217,6 +1236,15 @@ class GaitAnalyzer:
         landing foot comes flat only after its heel strike, so the fit reaches back into the double support
         from the frames that follow it.  None with fewer than three flat frames.
         """
+        fit = self._landing_fit(a, t_lo, t_hi)
+        if fit is None:
+            return None
+        mean, slope, mt, _ = fit
+        return mean + (self._t[idx] - mt)[:, None] * slope
+
+    def _landing_fit(self, a: int, t_lo: float, t_hi: float) -> tuple[FloatArray, FloatArray, float, float] | None:
+        """``(mean, slope, centre time, effective frame count)`` of the weighted linear fit of :meth:`_landing_toe`
+        (slope 0 when its weight is all at one instant), None with fewer than three flat frames."""
         series = self._raw[:, a, _T, :2]
         src = self._valid_range(t_lo, t_hi)
         src = src[(self._weight[src, a, _T] >= 0.5) & (self._weight[src, a, _H] >= 0.5)
@@ -1230,10 +1258,10 @@ class GaitAnalyzer:
         mt = float(w @ ts) / sw
         var = float(w @ (ts - mt) ** 2) / sw
         mean = (w @ xy) / sw
+        n_eff = sw * sw / float(w @ w)
         if var < 1e-6:  # all weight on one instant: no slope
-            return np.repeat(mean[None], idx.size, axis=0)
-        slope = (w * (ts - mt)) @ (xy - mean) / (sw * var)
-        return mean + (self._t[idx] - mt)[:, None] * slope
+            return mean, np.zeros(2), mt, n_eff
+        return mean, (w * (ts - mt)) @ (xy - mean) / (sw * var), mt, n_eff
 
     def _ankle_vector(self, idx: NDArray[np.intp], a: int, b: int) -> FloatArray | None:
         """Heel-to-heel vector (xy) of feet ``a`` and ``b`` from their ankles over frames ``idx``.
@@ -1283,7 +1311,15 @@ class GaitAnalyzer:
         hs_b = [t for t in self._feet[b].hs if t < ps.t_hs]
         t_from = max(hs_b[-1] if hs_b else -math.inf, ps.t_hs - c.planted_fit_window_s)
         if idx.size:
-            toe_b = self._planted_toe(idx, b, t_from, fit_only=fit_only)
+            late_drift = None
+            if c.planted_drift_ramp:
+                # the landing foot's drift once it is flat: the walker's motion past planted feet then; a slope
+                # needs the weight of three frames (one seen frame among hidden ones is a point, not a line)
+                # and a walker's speed
+                land = self._landing_fit(a, ps.t_hs, t_end + c.landing_toe_fit_s)
+                if land is not None and land[3] >= 3.0 and 0.0 < float(np.hypot(*land[1])) <= _MAX_DRIFT_SPEED:
+                    late_drift = (land[1], land[2])
+            toe_b = self._planted_toe(idx, b, t_from, fit_only=fit_only, late_drift=late_drift)
             toe_a = None
             if c.landing_toe_fit_s > 0:
                 toe_a = self._landing_toe(idx, a, ps.t_hs, t_end + c.landing_toe_fit_s)
