@@ -488,10 +488,12 @@ def test_step_width_survives_foot_yaw_errors() -> None:
     assert r["step_width_mae"] < 0.006
 
 
-def _hide_trailing_foot(spec: GaitSimSpec, *, error_m: float) -> tuple[GaitSimResult, list[LegPose], list[LegPose]]:
+def _hide_trailing_foot(spec: GaitSimSpec, *, error_m: float, lateral_m: float = 0.0
+                        ) -> tuple[GaitSimResult, list[LegPose], list[LegPose]]:
     """Session whose trailing foot, once the other foot is 5 cm ahead of its toe, is reported hidden and
-    drifts ``error_m`` ahead (ramping in and out over 0.1 s; hidden until the error is gone): what the
-    tracker does with a foot behind the leading leg.  Returns (sim, poses with visibility, same without)."""
+    drifts ``error_m`` ahead and ``lateral_m`` sideways (+y; ramping in and out over 0.1 s; hidden until the
+    error is gone): what the tracker does with a foot behind the leading leg.  Returns (sim, poses with
+    visibility, same without)."""
     sim = simulate_gait(spec, rng=np.random.default_rng(0))
     rot, off = sim.floor.walker_transform()
     dt = 1.0 / spec.fps
@@ -504,6 +506,7 @@ def _hide_trailing_foot(spec: GaitSimSpec, *, error_m: float) -> tuple[GaitSimRe
         env = np.clip(env + np.where(hid, 1.0, -1.0) * dt / 0.1, 0.0, 1.0)
         w = w.copy()
         w[:, :, 0] -= error_m * env[:, None]  # walker x points at the user: -x = ahead
+        w[:, :, 1] += lateral_m * env[:, None]
         vis = np.where((hid | (env > 0))[:, None], 0.0, 1.0) * np.ones((2, 3))
         moved = replace(p, points=(w - off) @ rot)
         with_vis.append(replace(moved, visibility=vis))
@@ -542,6 +545,19 @@ def test_hidden_trailing_foot_follows_a_walker_that_speeds_up() -> None:
         errors[ramp] = np.abs([ga.steps[j].step_length - sim.steps[i].step_length for i, j in pairs])
     assert errors[True].max() < 0.035 < 0.07 < errors[False].max()
     assert errors[True].mean() < 0.012 < 0.018 < errors[False].mean()
+
+
+def test_hidden_trailing_foot_keeps_its_seen_lateral_place() -> None:
+    """The hidden trailing foot reported 10 cm to the side (+y, the tracker's legs crossing or parting behind
+    the leading leg): the step width takes that foot's ankle from its seen drift too, as its toe for the length
+    (measured: 0.01 cm off).  Control: the same poses without visibility carry the error ramping in over the
+    double support into the step widths (1.2 cm)."""
+    spec = replace(SCENARIOS["normal"], walker_lag_s=0.6)
+    sim, with_vis, without = _hide_trailing_foot(spec, error_m=0.0, lateral_m=0.10)
+    r = evaluate_gait(sim.steps, sim.events, run_analyzer(with_vis, sim.floor), fps=spec.fps)
+    assert r["precision"] == 1.0 and r["recall"] == 1.0
+    ctrl = evaluate_gait(sim.steps, sim.events, run_analyzer(without, sim.floor), fps=spec.fps)
+    assert r["step_width_mae"] < 0.002 < 0.008 < ctrl["step_width_mae"], (r["step_width_mae"], ctrl["step_width_mae"])
 
 
 def test_visible_feet_keep_their_raw_positions() -> None:

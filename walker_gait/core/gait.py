@@ -1170,8 +1170,8 @@ class GaitAnalyzer:
         self._feet[a].hs.append(t_hs)
 
     def _planted_toe(self, idx: NDArray[np.intp], f: int, t_from: float, *, fit_only: bool = False,
-                     late_drift: tuple[FloatArray, float] | None = None) -> FloatArray:
-        """``(len(idx), 2)`` xy (walker frame) of the toe of planted foot ``f`` at frames ``idx``.
+                     late_drift: tuple[FloatArray, float] | None = None, ankle: bool = False) -> FloatArray:
+        """``(len(idx), 2)`` xy (walker frame) of the toe (``ankle``: the ankle) of planted foot ``f`` at frames ``idx``.
 
         While a foot is planted, its points drift through the walker frame only with the walker's smooth motion.  Late in
         its stance the trailing foot is often hidden behind the leading leg; the tracker, which then
@@ -1188,7 +1188,7 @@ class GaitAnalyzer:
         later than the fit's data (from the landing foot); the fitted drift then changes linearly in time from
         the fit's own slope, at the centre of its data, to ``v`` at ``t``, and the fit follows that ramp.
         """
-        series = self._raw[:, f, _T, :2]
+        series = self._ankle[:, f, :2] if ankle else self._raw[:, f, _T, :2]
         raw = series[idx]
         sigma = self.config.planted_fit_sigma_s
         if sigma <= 0 or idx.size == 0:
@@ -1263,17 +1263,20 @@ class GaitAnalyzer:
             return mean, np.zeros(2), mt, n_eff
         return mean, (w * (ts - mt)) @ (xy - mean) / (sw * var), mt, n_eff
 
-    def _ankle_vector(self, idx: NDArray[np.intp], a: int, b: int) -> FloatArray | None:
+    def _ankle_vector(self, idx: NDArray[np.intp], a: int, b: int, *,
+                      ankle_b: FloatArray | None = None) -> FloatArray | None:
         """Heel-to-heel vector (xy) of feet ``a`` and ``b`` from their ankles over frames ``idx``.
 
         Each heel = ankle + that foot's heel-minus-ankle offset measured while the foot was flat.  A foot's
         yaw (toe-out) error moves its heel by ``lever x yaw error``; the heel-ankle lever (~5 cm) is a
         fifth of the heel-toe one, so this is the better estimate of the lateral (step width) component,
-        and the ankle is the best-tracked point of the leg.  None when an offset is still unknown.
+        and the ankle is the best-tracked point of the leg.  ``ankle_b``: foot ``b``'s ankle at ``idx`` (the
+        trailing foot's, from :meth:`_planted_toe`'s fit where it is hidden) instead of the tracked one.  None
+        when an offset is still unknown.
         """
         if self._oa_n[a] == 0 or self._oa_n[b] == 0:
             return None
-        v = self._ankle[idx, a, :2] - self._ankle[idx, b, :2]
+        v = self._ankle[idx, a, :2] - (self._ankle[idx, b, :2] if ankle_b is None else ankle_b)
         v = v[np.all(np.isfinite(v), axis=1)]
         if v.shape[0] == 0:
             return None
@@ -1335,7 +1338,9 @@ class GaitAnalyzer:
                     d = (toe_a - toe_b).mean(axis=0)
             else:
                 d = (self._raw[idx, a, _H, :2] - toe_b - o).mean(axis=0)
-            lateral = self._ankle_vector(idx, a, b)
+            # the trailing ankle, hidden like its toe, continues its seen drift like it
+            ankle_b = self._planted_toe(idx, b, t_from, fit_only=fit_only, late_drift=late_drift, ankle=True)
+            lateral = self._ankle_vector(idx, a, b, ankle_b=ankle_b)
         else:  # no frame inside the double support (very short one): nearest frame
             near = self._valid_range(ps.t_hs - 0.1, ps.t_hs + 0.1)
             if near.size:
