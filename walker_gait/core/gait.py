@@ -208,7 +208,7 @@ class GaitConfig:
     travel is the change of the ankle's offset from the planted toe, along the foot's flat heel-to-toe
     direction (session mean, so a tracked foot's wobbling yaw averages out).  On the tracked poses of ``make
     sweep`` (tracker seeds 0 / 1; off -> on): step width MAE 2.28 / 2.41 -> 2.25 / 2.31 cm (set C), 2.30 / 2.50 ->
-    2.17 / 2.41 (A), 2.42 / 2.31 -> 2.29 / 2.30 (B); exact poses of set C's sessions 1.32 -> 1.04 cm."""
+    2.17 / 2.41 (A), 2.42 / 2.31 -> 2.29 / 2.30 (B); exact poses of set C's sessions 1.32 -> 0.94 cm."""
     progression_strides: int = 4
     """Number of recent strides averaged for the line of progression."""
     max_step_time_s: float = 2.5
@@ -1493,7 +1493,7 @@ def fitted_step_time(steps: list[Step]) -> float:
     the strike times against their running number, with an offset for every other strike when ``n >= 4`` (an
     asymmetric gait alternates a short and a long step), and the run's first and last strike are taken from it:
     for strikes on such a line (even or alternating steps) that is the mean step time exactly, and a timing error
-    at an end enters at most about half as much.  Runs of one or two steps keep their mean.  The runs' step times
+    at an end enters 0.4-0.8 times as much (less in longer runs).  Runs of one or two steps keep their mean.  The runs' step times
     are averaged, weighted by ``n``.  NaN without a step with a finite, positive step time.
     """
     pool = sorted((s for s in steps if math.isfinite(s.step_time) and s.step_time > 0), key=lambda s: s.stamp)
