@@ -34,7 +34,7 @@ Method in short (all geometry in the floor plane of the *walker* frame, see ``ty
    while A was flat on the floor.  Both terms are measured in the same frame at the same
    instant, so the walker's own motion cancels exactly; where the tracker reports A's foot hidden
    (late in its stance, behind B's leg), ``toe_A`` continues the drift seen while it was in view
-   (:meth:`GaitAnalyzer._planted_toe`), and so it does, seen or not, where B's strike is timed so late that A's
+   (:meth:`GaitAnalyzer._planted_point`), and so it does, seen or not, where B's strike is timed so late that A's
    toe is already off the floor.  The component across the line of
    progression (step width) comes from the ankles instead (``ankle + heel-ankle offset`` of each
    foot, see :meth:`GaitAnalyzer._ankle_vector`): far less sensitive to foot yaw errors.  Step vectors are chained into a
@@ -1086,7 +1086,7 @@ class GaitAnalyzer:
         keep_s: list[_PendingStep] = []
         for ps in self._pending_steps:
             limit = ps.t_hs + c.double_support_max_s
-            # the landing foot's footprint needs its flat frames after the double support (`_landing_toe`)
+            # the landing foot's footprint needs its flat frames after the double support (`_landing_fit`)
             closed = ps.t_end is not None and t_avail >= ps.t_end + c.landing_toe_fit_s
             if closed or t_avail >= limit + c.landing_toe_fit_s or final or before is not None:
                 if ps.t_end is None:
@@ -1177,7 +1177,7 @@ class GaitAnalyzer:
             self._pending_steps[-1].t_end = self._feet[b].to[-1]
         self._feet[a].hs.append(t_hs)
 
-    def _planted_toe(self, idx: NDArray[np.intp], f: int, t_from: float, *, fit_only: bool = False,
+    def _planted_point(self, idx: NDArray[np.intp], f: int, t_from: float, *, fit_only: bool = False,
                      late_drift: tuple[FloatArray, float] | None = None, ankle: bool = False) -> FloatArray:
         """``(len(idx), 2)`` xy (walker frame) of the toe (``ankle``: the ankle) of planted foot ``f`` at frames ``idx``.
 
@@ -1235,24 +1235,16 @@ class GaitAnalyzer:
         alpha = self._vis[idx, f][:, None] ** 2  # a fully seen foot keeps its raw position
         return alpha * raw + (1.0 - alpha) * out
 
-    def _landing_toe(self, idx: NDArray[np.intp], a: int, t_lo: float, t_hi: float) -> FloatArray | None:
-        """``(len(idx), 2)`` xy (walker frame) of the footprint of landing foot ``a``'s toe at frames ``idx``.
-
-        A linear fit over time of the toe in the frames of ``[t_lo, t_hi]`` in which the foot is flat (heel and
-        toe in the planted band), weighted by frame quality and the square of the foot's visibility, evaluated at
-        ``idx``: a planted toe only drifts through the walker frame with the walker's smooth motion, and the
-        landing foot comes flat only after its heel strike, so the fit reaches back into the double support
-        from the frames that follow it.  None with fewer than three flat frames.
-        """
-        fit = self._landing_fit(a, t_lo, t_hi)
-        if fit is None:
-            return None
-        mean, slope, mt, _ = fit
-        return mean + (self._t[idx] - mt)[:, None] * slope
-
     def _landing_fit(self, a: int, t_lo: float, t_hi: float) -> tuple[FloatArray, FloatArray, float, float] | None:
-        """``(mean, slope, centre time, effective frame count)`` of the weighted linear fit of :meth:`_landing_toe`
-        (slope 0 when its weight is all at one instant), None with fewer than three flat frames."""
+        """Footprint of landing foot ``a``'s toe: ``(mean, slope, centre time, effective frame count)`` of a linear
+        fit over time (xy, walker frame) of the toe in the frames of ``[t_lo, t_hi]`` in which the foot is flat
+        (heel and toe in the planted band), weighted by frame quality and the square of the foot's visibility.
+
+        Evaluated at a frame's time ``t`` it gives ``mean + (t - centre) slope``: a planted toe only drifts through
+        the walker frame with the walker's smooth motion, and the landing foot comes flat only after its heel strike,
+        so the fit reaches back into the double support from the frames that follow it; ``slope`` is that drift.
+        The slope is 0 when the weight is all at one instant; None with fewer than three flat frames.
+        """
         series = self._raw[:, a, _T, :2]
         src = self._valid_range(t_lo, t_hi)
         src = src[(self._weight[src, a, _T] >= 0.5) & (self._weight[src, a, _H] >= 0.5)
@@ -1271,20 +1263,19 @@ class GaitAnalyzer:
             return mean, np.zeros(2), mt, n_eff
         return mean, (w * (ts - mt)) @ (xy - mean) / (sw * var), mt, n_eff
 
-    def _ankle_vector(self, idx: NDArray[np.intp], a: int, b: int, *,
-                      ankle_b: FloatArray | None = None) -> FloatArray | None:
+    def _ankle_vector(self, idx: NDArray[np.intp], a: int, b: int, ankle_b: FloatArray) -> FloatArray | None:
         """Heel-to-heel vector (xy) of feet ``a`` and ``b`` from their ankles over frames ``idx``.
 
         Each heel = ankle + that foot's heel-minus-ankle offset measured while the foot was flat.  A foot's
         yaw (toe-out) error moves its heel by ``lever x yaw error``; the heel-ankle lever (~5 cm) is a
         fifth of the heel-toe one, so this is the better estimate of the lateral (step width) component,
-        and the ankle is the best-tracked point of the leg.  ``ankle_b``: foot ``b``'s ankle at ``idx`` (the
-        trailing foot's, from :meth:`_planted_toe`'s fit where it is hidden) instead of the tracked one.  None
-        when an offset is still unknown.
+        and the ankle is the best-tracked point of the leg.  ``ankle_b``: ``(len(idx), 2)`` foot ``b``'s ankle at
+        ``idx`` (the trailing foot's: from :meth:`_planted_point`'s fit where it is hidden, its heel rise taken
+        out).  None when an offset is still unknown.
         """
         if self._oa_n[a] == 0 or self._oa_n[b] == 0:
             return None
-        v = self._ankle[idx, a, :2] - (self._ankle[idx, b, :2] if ankle_b is None else ankle_b)
+        v = self._ankle[idx, a, :2] - ankle_b
         v = v[np.all(np.isfinite(v), axis=1)]
         if v.shape[0] == 0:
             return None
@@ -1318,22 +1309,23 @@ class GaitAnalyzer:
             fallback = True
         lateral = None  # the step vector's component across the line of progression, from the ankles
         # b is the trailing foot, often hidden behind the leading leg by now: its toe comes from the frames
-        # in which it was seen (see _planted_toe)
+        # in which it was seen (see _planted_point)
         hs_b = [t for t in self._feet[b].hs if t < ps.t_hs]
         t_from = max(hs_b[-1] if hs_b else -math.inf, ps.t_hs - c.planted_fit_window_s)
         if idx.size:
-            late_drift = None
-            if c.planted_drift_ramp:
-                # the landing foot's drift once it is flat: the walker's motion past planted feet then; a slope
-                # needs the weight of three frames (one seen frame among hidden ones is a point, not a line)
-                # and a walker's speed
+            land = None
+            if c.planted_drift_ramp or c.landing_toe_fit_s > 0:
                 land = self._landing_fit(a, ps.t_hs, t_end + c.landing_toe_fit_s)
-                if land is not None and land[3] >= 3.0 and 0.0 < float(np.hypot(*land[1])) <= _MAX_DRIFT_SPEED:
-                    late_drift = (land[1], land[2])
-            toe_b = self._planted_toe(idx, b, t_from, fit_only=fit_only, late_drift=late_drift)
+            late_drift = None
+            # the landing foot's drift once it is flat: the walker's motion past planted feet then; a slope needs
+            # the weight of three frames (one seen frame among hidden ones is a point, not a line) and a walker's speed
+            if c.planted_drift_ramp and land is not None and land[3] >= 3.0 and (
+                    0.0 < float(np.hypot(*land[1])) <= _MAX_DRIFT_SPEED):
+                late_drift = (land[1], land[2])
+            toe_b = self._planted_point(idx, b, t_from, fit_only=fit_only, late_drift=late_drift)
             toe_a = None
-            if c.landing_toe_fit_s > 0:
-                toe_a = self._landing_toe(idx, a, ps.t_hs, t_end + c.landing_toe_fit_s)
+            if c.landing_toe_fit_s > 0 and land is not None:
+                toe_a = land[0] + (self._t[idx] - land[2])[:, None] * land[1]
             if toe_a is not None:
                 # toe to toe: a footprint's heel-toe offset is the same for both feet along the progression;
                 # frames in which both toes are planted and a's foot is flat need no fit (the walker's
@@ -1347,7 +1339,7 @@ class GaitAnalyzer:
             else:
                 d = (self._raw[idx, a, _H, :2] - toe_b - o).mean(axis=0)
             # the trailing ankle, hidden like its toe, continues its seen drift like it
-            ankle_b = self._planted_toe(idx, b, t_from, fit_only=fit_only, late_drift=late_drift, ankle=True)
+            ankle_b = self._planted_point(idx, b, t_from, fit_only=fit_only, late_drift=late_drift, ankle=True)
             if c.heel_rise_travel and self._o_n[b] > 0 and self._oa_n[b] > 0:
                 # the heel rising about the planted toe carries the ankle forward along the foot: take that back
                 o_b = self._o_sum[b] / self._o_n[b]  # flat heel - toe
@@ -1357,12 +1349,12 @@ class GaitAnalyzer:
                     axis = -o_b / nrm  # flat heel -> toe
                     travel = ((ankle_b - toe_b) - toe_to_ankle) @ axis
                     ankle_b = ankle_b - travel[:, None] * axis[None, :]
-            lateral = self._ankle_vector(idx, a, b, ankle_b=ankle_b)
+            lateral = self._ankle_vector(idx, a, b, ankle_b)
         else:  # no frame inside the double support (very short one): nearest frame
             near = self._valid_range(ps.t_hs - 0.1, ps.t_hs + 0.1)
             if near.size:
                 kn = near[int(np.argmin(np.abs(self._t[near] - ps.t_hs)))]
-                toe_b = self._planted_toe(np.array([kn]), b, t_from, fit_only=bool(self._weight[kn, b, _T] < 0.5))[0]
+                toe_b = self._planted_point(np.array([kn]), b, t_from, fit_only=bool(self._weight[kn, b, _T] < 0.5))[0]
                 d = self._raw[kn, a, _H, :2] - toe_b - o
             else:  # tracking gap around the heel strike
                 d = np.full(2, np.nan)
@@ -1508,16 +1500,14 @@ def fitted_step_time(steps: list[Step]) -> float:
     for run in runs:
         t = np.asarray(run, dtype=np.float64)
         n = t.size - 1
-        if n <= 2:
-            slope = float(t[-1] - t[0]) / n
-        else:
+        first, last = float(t[0]), float(t[-1])
+        if n >= 3:
             k = np.arange(t.size, dtype=np.float64)
             cols = [np.ones_like(k), k] + ([k % 2] if n >= 4 else [])
             design = np.stack(cols, axis=1)
             coef, *_ = np.linalg.lstsq(design, t - t[0], rcond=None)
-            ends = design[[0, -1]] @ coef  # the run's first and last strike as fitted
-            slope = float(ends[1] - ends[0]) / n
-        total += slope * n
+            first, last = (float(x) for x in design[[0, -1]] @ coef)  # the run's end strikes as fitted
+        total += last - first  # = the run's mean step time x n
         weight += n
     return total / weight if weight > 0 else math.nan
 
