@@ -1356,6 +1356,13 @@ class GaitAnalyzer:
                 kn = near[int(np.argmin(np.abs(self._t[near] - ps.t_hs)))]
                 toe_b = self._planted_point(np.array([kn]), b, t_from, fit_only=bool(self._weight[kn, b, _T] < 0.5))[0]
                 d = self._raw[kn, a, _H, :2] - toe_b - o
+                land = self._landing_fit(a, ps.t_hs, t_end + c.landing_toe_fit_s) if c.landing_toe_fit_s > 0 else None
+                if land is not None:
+                    # along the line of progression toe to toe, as with a double support (the tracked heel of a
+                    # strike timed this late is what went wrong); across it, heel to heel as before
+                    d_toe = land[0] + (self._t[kn] - land[2]) * land[1] - toe_b
+                    u_p = self._progression_dir()
+                    d = d + float((d_toe - d) @ u_p) * u_p
             else:  # tracking gap around the heel strike
                 d = np.full(2, np.nan)
         if lateral is not None and np.all(np.isfinite(d)):
