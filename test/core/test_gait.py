@@ -597,6 +597,39 @@ def test_hidden_trailing_foot_keeps_its_seen_lateral_place() -> None:
     assert r["step_width_mae"] < 0.002 < 0.008 < ctrl["step_width_mae"], (r["step_width_mae"], ctrl["step_width_mae"])
 
 
+def test_planted_drift_ramp_starts_at_the_fits_centre_and_stays_at_the_late_drift() -> None:
+    """The planted-foot fit with a late drift ``v`` at ``t_v``: a toe drifting at 0.5 m/s, fitted around the last
+    frame (Gaussian weights, its data's centre 0.2 s or so before it), and ``v`` = 1 m/s.  The drift ramps from
+    the fit's slope at the data's centre to ``v`` at ``t_v`` and stays at ``v`` after it, so the frame moves ahead
+    by at most ``(v - slope) x lead`` (``t_v`` at the centre) and by less the later ``t_v`` (nothing in the limit);
+    a ``t_v`` before the centre, or a frame before the centre (the first one: its data lie after it), moves nothing."""
+    cfg = GaitConfig()
+    ga = GaitAnalyzer(cfg)
+    n = 30
+    t = np.arange(n) / 30.0
+    ga._t[:n], ga._q[:n], ga._valid[:n], ga._vis[:n] = t, 1.0, True, 1.0
+    ga._raw[:n, 0, 1, 0], ga._raw[:n, 0, 1, 1] = 0.2 + 0.5 * t, 0.1  # foot 0's toe, walker frame
+    ga._weight[:n, 0, 1] = 1.0
+    ga._n = n
+    idx = np.array([0, n - 1])
+    v = np.array([1.0, 0.0])
+    base = ga._planted_point(idx, 0, -math.inf, fit_only=True)
+    assert base[:, 0] == pytest.approx(0.2 + 0.5 * t[[0, n - 1]])  # a straight drift is fitted exactly
+    w = np.exp(-0.5 * ((t - t[-1]) / cfg.planted_fit_sigma_s) ** 2)
+    centre = float(w @ t / w.sum())
+    lead = t[-1] - centre
+    gains = []
+    for t_v in (centre - 0.1, centre + 1e-3, centre + 0.05, t[-1], t[-1] + 1.0, t[-1] + 1e4):
+        out = ga._planted_point(idx, 0, -math.inf, fit_only=True, late_drift=(v, t_v))
+        assert out[0] == pytest.approx(base[0])  # the first frame lies before its data's centre
+        assert out[1, 1] == pytest.approx(0.1)
+        gains.append(out[1, 0] - base[1, 0])
+    assert gains[0] == pytest.approx(0.0, abs=1e-12)
+    assert gains[1] == pytest.approx(0.5 * lead, rel=0.01)  # v from the centre on
+    assert gains[1] > gains[2] > gains[3] > gains[4] > gains[5] > 0.0
+    assert gains[5] < 1e-4
+
+
 def test_visible_feet_keep_their_raw_positions() -> None:
     """Visibility 1 everywhere changes nothing: the step metrics are those of poses without visibility."""
     spec = SCENARIOS["normal"]

@@ -1223,13 +1223,16 @@ class GaitAnalyzer:
                 continue
             slope = (w * (dt - mt)) @ (xy - mean) / (sw * var)
             out[i] = mean - mt * slope  # value at dt = 0
-            if late_drift is not None:
-                # drift ramping from `slope` at the data's centre (time t_k + mt) to v at t: integrated from the
-                # centre to the frame (-mt), the linear value gains (v - slope) mt^2 / (2 span)
+            lead = -mt  # time from the data's centre to the frame
+            if late_drift is not None and lead > 0.0:
+                # the drift ramps linearly from `slope` at the data's centre to v at t_v and stays at v after it:
+                # integrated from the centre to the frame, the linear value gains (v - slope) times
+                # lead^2 / (2 span) while lead <= span, lead - span / 2 after
                 v, t_v = late_drift
                 span = t_v - (float(self._t[k]) + mt)
                 if span > 1e-3:
-                    out[i] += (v - slope) * (mt * mt / (2.0 * span))
+                    gain = lead * lead / (2.0 * span) if lead <= span else lead - 0.5 * span
+                    out[i] += (v - slope) * gain
         if fit_only:
             return out
         alpha = self._vis[idx, f][:, None] ** 2  # a fully seen foot keeps its raw position
