@@ -484,6 +484,22 @@ class _PendingStep:
     t_end: float | None = None  # closing time: opposite toe off (or None)
 
 
+@dataclass(frozen=True)
+class _DriftFit:
+    """A planted toe's linear fit over time (walker frame, xy): ``mean`` at time ``centre``, drifting at ``slope``
+    (m/s); ``n_eff``: the effective number of frames behind it, ``(Σw)² / Σw²``."""
+
+    mean: FloatArray
+    slope: FloatArray
+    centre: float
+    n_eff: float
+
+    def at(self, t: FloatArray | float) -> FloatArray:
+        """The fitted position at time(s) ``t``: ``(2,)`` for a scalar, ``(len(t), 2)`` for an array."""
+        dt = np.asarray(t, dtype=np.float64) - self.centre
+        return self.mean + (dt[..., None] if dt.ndim else dt) * self.slope
+
+
 @dataclass
 class _FootHistory:
     hs: list[float] = field(default_factory=list)
@@ -1178,7 +1194,7 @@ class GaitAnalyzer:
         self._feet[a].hs.append(t_hs)
 
     def _planted_point(self, idx: NDArray[np.intp], f: int, t_from: float, *, fit_only: bool = False,
-                     late_drift: tuple[FloatArray, float] | None = None, ankle: bool = False) -> FloatArray:
+                       late_drift: tuple[FloatArray, float] | None = None, ankle: bool = False) -> FloatArray:
         """``(len(idx), 2)`` xy (walker frame) of the toe (``ankle``: the ankle) of planted foot ``f`` at frames ``idx``.
 
         While a foot is planted, its points drift through the walker frame only with the walker's smooth motion.  Late in
@@ -1238,15 +1254,15 @@ class GaitAnalyzer:
         alpha = self._vis[idx, f][:, None] ** 2  # a fully seen foot keeps its raw position
         return alpha * raw + (1.0 - alpha) * out
 
-    def _landing_fit(self, a: int, t_lo: float, t_hi: float) -> tuple[FloatArray, FloatArray, float, float] | None:
-        """Footprint of landing foot ``a``'s toe: ``(mean, slope, centre time, effective frame count)`` of a linear
-        fit over time (xy, walker frame) of the toe in the frames of ``[t_lo, t_hi]`` in which the foot is flat
-        (heel and toe in the planted band), weighted by frame quality and the square of the foot's visibility.
+    def _landing_fit(self, a: int, t_lo: float, t_hi: float) -> _DriftFit | None:
+        """Footprint of landing foot ``a``'s toe: a linear fit over time (xy, walker frame) of the toe in the frames
+        of ``[t_lo, t_hi]`` in which the foot is flat (heel and toe in the planted band), weighted by frame quality
+        and the square of the foot's visibility.
 
-        Evaluated at a frame's time ``t`` it gives ``mean + (t - centre) slope``: a planted toe only drifts through
-        the walker frame with the walker's smooth motion, and the landing foot comes flat only after its heel strike,
-        so the fit reaches back into the double support from the frames that follow it; ``slope`` is that drift.
-        The slope is 0 when the weight is all at one instant; None with fewer than three flat frames.
+        A planted toe only drifts through the walker frame with the walker's smooth motion, and the landing foot
+        comes flat only after its heel strike, so the fit (:meth:`_DriftFit.at`) reaches back into the double
+        support from the frames that follow it; its slope is that drift, 0 when the weight is all at one instant.
+        None with fewer than three flat frames.
         """
         series = self._raw[:, a, _T, :2]
         src = self._valid_range(t_lo, t_hi)
@@ -1262,9 +1278,8 @@ class GaitAnalyzer:
         var = float(w @ (ts - mt) ** 2) / sw
         mean = (w @ xy) / sw
         n_eff = sw * sw / float(w @ w)
-        if var < 1e-6:  # all weight on one instant: no slope
-            return mean, np.zeros(2), mt, n_eff
-        return mean, (w * (ts - mt)) @ (xy - mean) / (sw * var), mt, n_eff
+        slope = np.zeros(2) if var < 1e-6 else (w * (ts - mt)) @ (xy - mean) / (sw * var)  # 1e-6: one instant
+        return _DriftFit(mean=mean, slope=slope, centre=mt, n_eff=n_eff)
 
     def _ankle_vector(self, idx: NDArray[np.intp], a: int, b: int, ankle_b: FloatArray) -> FloatArray | None:
         """Heel-to-heel vector (xy) of feet ``a`` and ``b`` from their ankles over frames ``idx``.
@@ -1315,20 +1330,19 @@ class GaitAnalyzer:
         # in which it was seen (see _planted_point)
         hs_b = [t for t in self._feet[b].hs if t < ps.t_hs]
         t_from = max(hs_b[-1] if hs_b else -math.inf, ps.t_hs - c.planted_fit_window_s)
+        land = None  # the landing foot's toe once it is flat
+        if c.planted_drift_ramp or c.landing_toe_fit_s > 0:
+            land = self._landing_fit(a, ps.t_hs, t_end + c.landing_toe_fit_s)
+        land_toe = land if c.landing_toe_fit_s > 0 else None
         if idx.size:
-            land = None
-            if c.planted_drift_ramp or c.landing_toe_fit_s > 0:
-                land = self._landing_fit(a, ps.t_hs, t_end + c.landing_toe_fit_s)
             late_drift = None
             # the landing foot's drift once it is flat: the walker's motion past planted feet then; a slope needs
             # the weight of three frames (one seen frame among hidden ones is a point, not a line) and a walker's speed
-            if c.planted_drift_ramp and land is not None and land[3] >= 3.0 and (
-                    0.0 < float(np.hypot(*land[1])) <= _MAX_DRIFT_SPEED):
-                late_drift = (land[1], land[2])
+            if c.planted_drift_ramp and land is not None and land.n_eff >= 3.0 and (
+                    0.0 < float(np.hypot(*land.slope)) <= _MAX_DRIFT_SPEED):
+                late_drift = (land.slope, land.centre)
             toe_b = self._planted_point(idx, b, t_from, fit_only=fit_only, late_drift=late_drift)
-            toe_a = None
-            if c.landing_toe_fit_s > 0 and land is not None:
-                toe_a = land[0] + (self._t[idx] - land[2])[:, None] * land[1]
+            toe_a = None if land_toe is None else land_toe.at(self._t[idx])
             if toe_a is not None:
                 # toe to toe: a footprint's heel-toe offset is the same for both feet along the progression;
                 # frames in which both toes are planted and a's foot is flat need no fit (the walker's
@@ -1359,11 +1373,10 @@ class GaitAnalyzer:
                 kn = near[int(np.argmin(np.abs(self._t[near] - ps.t_hs)))]
                 toe_b = self._planted_point(np.array([kn]), b, t_from, fit_only=bool(self._weight[kn, b, _T] < 0.5))[0]
                 d = self._raw[kn, a, _H, :2] - toe_b - o
-                land = self._landing_fit(a, ps.t_hs, t_end + c.landing_toe_fit_s) if c.landing_toe_fit_s > 0 else None
-                if land is not None:
+                if land_toe is not None:
                     # along the line of progression toe to toe, as with a double support (the tracked heel of a
                     # strike timed this late is what went wrong); across it, heel to heel as before
-                    d_toe = land[0] + (self._t[kn] - land[2]) * land[1] - toe_b
+                    d_toe = land_toe.at(float(self._t[kn])) - toe_b
                     u_p = self._progression_dir()
                     d = d + float((d_toe - d) @ u_p) * u_p
             else:  # tracking gap around the heel strike
