@@ -122,7 +122,10 @@ class GaitConfig:
     min_stance_time_s: float = 0.2
     """A foot cannot toe off within this time (s) of the detection of its own heel strike (stance lasts
     >= 0.35 s even in fast walking; keeps a just-landed foot whose toe is still coming down, or noise,
-    from starting a second swing)."""
+    from starting a second swing).  A toe off timed within this time of the foot's own (fitted) heel strike, with
+    no strike of the other foot since, withdraws that strike's step while it is pending: the foot stopped mid-swing
+    and swings on (a slow first step while the walker starts to roll; on the tracked poses of ``make sweep``, sets
+    C / A / B, tracker seeds 0 / 1: 11 of the 12 steps so withdrawn were phantoms, the twelfth a tracking failure)."""
     max_swing_time_s: float = 3.0
     """A swing not landing within this time (s) resets the state machine."""
     plant_height_tol_m: float = 0.03
@@ -995,6 +998,12 @@ class GaitAnalyzer:
         t_to = _hinge_time(tt, chans, rising=True, tc_lo=tc_lo, tc_hi=t_conf, drift=drift)
         if not math.isfinite(t_to):
             t_to = t_rest
+        if self._withdraw_hover(a, t_to):
+            self._state = GaitState.SWING_LEFT if a == 0 else GaitState.SWING_RIGHT
+            self._swing_heel_anchor = self._anchor_heel(k, a, t_rest)
+            self._swing_start_t = t_conf
+            self._swing_to_t = t_to  # the next heel strike is searched after the hover
+            return
         conf = self._event_conf(t_to)
         pos = self._cam_at(t_to, a, _T)
         ev = GaitEvent(stamp=t_to, side=Side(a), kind=EventKind.TOE_OFF, position=pos, confidence=conf)
@@ -1111,6 +1120,23 @@ class GaitAnalyzer:
             else:
                 keep_s.append(ps)
         self._pending_steps = keep_s
+
+    def _withdraw_hover(self, a: int, t_to: float) -> bool:
+        """True (and foot ``a``'s last heel strike taken back, its step not reported) when the toe off at ``t_to``
+        follows that strike by less than ``min_stance_time_s`` with no heel strike of the other foot since: the
+        foot did not land, it stopped mid-swing and swings on (a slow first step while the walker starts to roll:
+        in the walker frame the swinging foot stands still for a few frames).  Only a strike whose step is still
+        pending is taken back; its heel-strike event has gone out already."""
+        c = self.config
+        hs_a, hs_b = self._feet[a].hs, self._feet[1 - a].hs
+        if not hs_a or not 0.0 <= t_to - hs_a[-1] < c.min_stance_time_s or (hs_b and hs_b[-1] > hs_a[-1]):
+            return False
+        hover = [ps for ps in self._pending_steps if ps.side == a and ps.t_hs == hs_a[-1]]
+        if not hover:
+            return False
+        self._pending_steps = [ps for ps in self._pending_steps if ps is not hover[0]]
+        hs_a.pop()
+        return True
 
     def _resumed(self, p: _PendingHS) -> bool:
         """True (and the swing resumed) when the foot of a heel strike that is still the last thing that happened
