@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from walker_gait.core.feet import ToeFit, measure_toes
-from walker_gait.core.types import ANKLE, HEEL, TOE
+from walker_gait.core.feet import ToeFit, measure_toes, toes_in_view
+from walker_gait.core.types import ANKLE, HEEL, TOE, CameraIntrinsics
 
 CAMERA = np.array([1.0, 0.0, 0.45])  # body frame: the walker's camera ahead of the user, 45 cm up
 
@@ -102,6 +102,8 @@ def test_rejects_bad_input() -> None:
         ToeFit(reach=0.0)
     with pytest.raises(ValueError, match="pitch_deadband"):
         ToeFit(pitch_deadband=-0.1)
+    with pytest.raises(ValueError, match="border_px"):
+        ToeFit(border_px=-1.0)
 
 
 def test_a_foot_on_its_toes_is_measured_at_the_sole_tip() -> None:
@@ -124,3 +126,49 @@ def test_a_foot_on_its_toes_is_measured_at_the_sole_tip() -> None:
     # without the lean correction the toe box's top front reads as the toe, well ahead of the tip
     plain, _ = measure_toes(legs, pts, camera=CAMERA, fit=ToeFit(pitch_deadband=10.0))
     assert plain[0, 0] - tip[0] > 0.015
+
+
+INTR = CameraIntrinsics(width=640, height=480, fx=525.0, fy=525.0, cx=319.5, cy=239.5)
+
+
+def _camera_pose(pitch: float) -> tuple[np.ndarray, np.ndarray]:
+    """``(R, C)`` of a camera at ``CAMERA`` looking back at the user (-x), pitched down by ``pitch`` rad:
+    camera-frame points are ``(p - C) @ R.T`` (optical frame: z along the view, y down the image)."""
+    z = np.array([-np.cos(pitch), 0.0, -np.sin(pitch)])
+    down = np.array([0.0, 0.0, -1.0])
+    y = down - (down @ z) * z
+    y /= np.linalg.norm(y)
+    return np.stack([np.cross(y, z), y, z]), CAMERA
+
+
+def test_a_shoe_cut_by_the_image_border_is_not_measured() -> None:
+    """A user close to the camera lands the leading foot below the image's bottom edge: the part of the shoe
+    still in view ends at the border, and its front is not the toe box."""
+    rng = np.random.default_rng(8)
+    heels = np.array([[0.20, 0.07, 0.0], [0.62, -0.07, 0.0]])  # the right foot leads, close to the walker
+    toes = heels + np.array([0.26, 0.0, 0.0])
+    pts = np.vstack([_shoe(heels[s], toes[s], rng, n=3000) for s in (0, 1)])
+    rot, cam = _camera_pose(np.radians(35.0))
+    to_cam = lambda p: (np.asarray(p) - cam) @ rot.T  # noqa: E731
+    uv = INTR.project(to_cam(pts))
+    seen = (uv[:, 0] >= 0) & (uv[:, 0] < INTR.width) & (uv[:, 1] >= 0) & (uv[:, 1] < INTR.height)
+    assert 0.2 < seen[3000:].mean() < 0.9  # the leading shoe is partly out of the image, the other in it
+    assert seen[:3000].all()
+    legs = _legs(heels, toes)
+    got, measured = measure_toes(legs, pts[seen], camera=CAMERA)
+    assert measured.all()
+    assert got[1, 0] < toes[1, 0] - 0.05  # measured at the border, far behind the real toe
+    assert abs(got[0, 0] - toes[0, 0]) < 0.012
+    legs_cam = to_cam(legs.reshape(-1, 3)).reshape(2, 5, 3)
+    np.testing.assert_array_equal(toes_in_view(legs_cam, to_cam(got), intrinsics=INTR), [True, False])
+    # the same feet further from the camera: both in view
+    back = np.array([-0.3, 0.0, 0.0])
+    legs_back = to_cam((legs + back).reshape(-1, 3)).reshape(2, 5, 3)
+    np.testing.assert_array_equal(toes_in_view(legs_back, to_cam(toes + back), intrinsics=INTR), [True, True])
+    # a measured toe on the border row itself is a cut shoe even when the tracked toe is in view
+    edge = INTR.backproject(np.array([300.0, 300.0]), np.array([479.0, 200.0]), legs_back[:, TOE, 2])
+    np.testing.assert_array_equal(toes_in_view(legs_back, edge, intrinsics=INTR), [False, True])
+    # nor are points behind the camera in view
+    behind = legs_back.copy()
+    behind[1, :, 2] = -0.1
+    assert not toes_in_view(behind, to_cam(toes + back), intrinsics=INTR)[1]

@@ -16,7 +16,9 @@ filter has placed the foot, the toe it reports is measured from the foreground a
 * a foot pitched up on its toes (late stance) leans its toe box forward over the sole's tip: each point's
   position along the foot is taken back by its height above the tip times the tangent of the tracked foot's
   heel-up pitch beyond ``pitch_deadband`` (the filter holds flat feet a few degrees heel-up);
-* the toe's height stays the tracked one, and nothing else of the pose moves.
+* the toe's height stays the tracked one, and nothing else of the pose moves;
+* a foot whose tracked or measured toe lies at the image's border keeps its tracked toe (:func:`toes_in_view`):
+  the shoe may be cut there, and the front of what is left of it is the border.
 
 This is done only for a foot that points towards the camera (its toe box faces the lens: a camera on the
 walker looking back at its user), with at least ``min_points`` such points.  The particles are left as they
@@ -36,7 +38,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from walker_gait.core.types import HEEL, TOE
+from walker_gait.core.types import HEEL, TOE, CameraIntrinsics
 
 FloatArray = NDArray[np.float64]
 BoolArray = NDArray[np.bool_]
@@ -55,6 +57,7 @@ class ToeFit:
     reach: float = 0.04  # points further than this ahead of the tracked toe (along the foot) are not the shoe
     pitch_deadband: float = 0.1  # rad: heel-up pitch of the tracked foot below which it counts as flat
     min_points: int = 20  # fewer points near a foot leave its toe as tracked
+    border_px: float = 4.0  # a tracked or measured toe this near the image's border (pixels): the shoe may be cut there
 
     def __post_init__(self) -> None:
         if not (0.0 <= self.min_height < self.max_height and self.radius > 0.0):
@@ -66,6 +69,8 @@ class ToeFit:
             raise ValueError(f"pitch_deadband must be >= 0, got {self.pitch_deadband}")
         if not 0.0 < self.percentile <= 100.0:
             raise ValueError(f"percentile must be in (0, 100], got {self.percentile}")
+        if not self.border_px >= 0.0:
+            raise ValueError(f"border_px must be >= 0, got {self.border_px}")
         if self.min_points < 1:
             raise ValueError(f"min_points must be >= 1, got {self.min_points}")
 
@@ -139,3 +144,27 @@ def measure_toes(
         toes[side, :2] = heel[:2] + along * u + across * v
         measured[side] = True
     return toes, measured
+
+
+def toes_in_view(
+    legs: FloatArray, toes: FloatArray, *, intrinsics: CameraIntrinsics, fit: ToeFit = ToeFit()
+) -> BoolArray:
+    """Per side, whether the front of the shoe can be in the image: the tracked toe and the measured one both
+    project at least ``border_px`` inside the image's border.
+
+    ``legs`` ``(2, 5, 3)`` tracked ``LEG_POINTS`` and ``toes`` ``(2, 3)`` measured toes, camera optical frame.  A
+    foot that leaves the image (a user close to the camera lands their leading foot below the image's bottom
+    edge) shows only the part of its shoe still in view, whose front is the border, not the toe box: measured
+    there, the toe sat 12-15 cm behind the real one while the model foot had gone on with its swing (DEVELOPERS.md,
+    thirty-first session).  Testing a point ``reach`` ahead of the tracked toe as well (a shoe front just past the
+    border) made no difference on the sweeps (step length within 0.03 cm).
+    """
+    legs = np.asarray(legs, dtype=np.float64)
+    toe = legs[:, TOE]
+    probe = np.stack([toe, np.asarray(toes, dtype=np.float64)], axis=1)  # (2, 2, 3)
+    uv = intrinsics.project(probe)
+    m = fit.border_px
+    with np.errstate(invalid="ignore"):
+        inside = ((uv[..., 0] >= m) & (uv[..., 0] <= intrinsics.width - 1 - m)
+                  & (uv[..., 1] >= m) & (uv[..., 1] <= intrinsics.height - 1 - m))
+    return np.all(inside, axis=1)

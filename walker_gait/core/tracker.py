@@ -100,7 +100,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from walker_gait.core import leg_model as lm
-from walker_gait.core.feet import ToeFit, measure_toes
+from walker_gait.core.feet import ToeFit, measure_toes, toes_in_view
 from walker_gait.core.presence import PresenceTest, legs_in_view
 from walker_gait.core.leg_model import BodyFrame, Kinematics, StateLayout
 from walker_gait.core.likelihood import (
@@ -221,7 +221,7 @@ class TrackerConfig:
     sigma_knee: float = 0.08  # rad
     sigma_ankle: float = 0.07  # rad
     # model
-    toe_from_data: bool = False  # report each toe measured from the foreground around the tracked foot (the front of its toe box, see `feet`) instead of the model foot's end; the particles are unchanged (false: the model's, paper)
+    toe_from_data: bool = False  # report each toe measured from the foreground around the tracked foot (the front of its toe box, see `feet`) instead of the model foot's end, except where the shoe may be cut by the image's border; the particles are unchanged (false: the model's, paper)
     elliptic_foot: bool = False  # likelihood sees each foot as a half-ellipse as tall as its radius and 0.155 x foot length wide, like a shoe (false: the paper's half-cylinder)
     # pose prior
     ankle_prior_sigma: float = math.inf  # rad, Gaussian prior on ankle flexion around neutral (inf = none, paper)
@@ -1089,8 +1089,11 @@ class LegTracker:
         if self.config.toe_from_data:
             camera = frame.body.to_body(np.zeros(3))
             toes, _ = measure_toes(pts_body, frame.fg_all_body, camera=camera, fit=self._toe_fit)
+            # a shoe cut by the image's border ends there, not at its toe box: keep the model's toe
+            in_view = toes_in_view(frame.body.to_camera(pts_body), frame.body.to_camera(toes),
+                                   intrinsics=self.intrinsics, fit=self._toe_fit)
             pts_body = pts_body.copy()
-            pts_body[:, TOE] = toes
+            pts_body[in_view, TOE] = toes[in_view]
         pose = LegPose(
             stamp=stamp,
             points=frame.body.to_camera(pts_body),
