@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from walker_gait.core.feet import ToeFit, measure_toes, toes_in_view
+from walker_gait.core.feet import ToeFit, across_only, measure_toes, toes_in_view
 from walker_gait.core.types import ANKLE, HEEL, TOE, CameraIntrinsics
 
 CAMERA = np.array([1.0, 0.0, 0.45])  # body frame: the walker's camera ahead of the user, 45 cm up
@@ -172,3 +172,18 @@ def test_a_shoe_cut_by_the_image_border_is_not_measured() -> None:
     behind = legs_back.copy()
     behind[1, :, 2] = -0.1
     assert not toes_in_view(behind, to_cam(toes + back), intrinsics=INTR)[1]
+
+
+def test_a_cut_shoe_keeps_its_tracked_toe_along_the_foot_and_its_measured_centre_line() -> None:
+    heels = np.array([[0.0, 0.06, 0.0], [0.15, -0.06, 0.0]])
+    toes = heels + np.array([[0.26, 0.03, 0.0], [0.26, 0.0, 0.0]])  # the left foot toed out
+    legs = _legs(heels, toes)
+    measured = toes + np.array([[-0.10, 0.015, 0.01], [-0.02, 0.01, 0.0]])  # the left shoe measured at a border
+    got = across_only(legs, measured, np.array([True, False]))
+    np.testing.assert_array_equal(got[1], measured[1])  # an uncut side keeps its measurement
+    u = (toes[0] - heels[0])[:2] / np.linalg.norm((toes[0] - heels[0])[:2])
+    v = np.array([-u[1], u[0]])
+    assert (got[0, :2] - toes[0, :2]) @ u == pytest.approx(0.0, abs=1e-12)  # along the foot: the tracked toe
+    assert (got[0, :2] - toes[0, :2]) @ v == pytest.approx((measured[0, :2] - toes[0, :2]) @ v)  # across: measured
+    assert got[0, 2] == toes[0, 2]
+    np.testing.assert_array_equal(across_only(legs, measured, np.array([False, False])), measured)

@@ -17,8 +17,9 @@ filter has placed the foot, the toe it reports is measured from the foreground a
   position along the foot is taken back by its height above the tip times the tangent of the tracked foot's
   heel-up pitch beyond ``pitch_deadband`` (the filter holds flat feet a few degrees heel-up);
 * the toe's height stays the tracked one, and nothing else of the pose moves;
-* a foot whose tracked or measured toe lies at the image's border keeps its tracked toe (:func:`toes_in_view`):
-  the shoe may be cut there, and the front of what is left of it is the border.
+* a foot whose tracked or measured toe lies at the image's border (:func:`toes_in_view`) keeps its tracked toe
+  along the foot and only the measured offset across it (:func:`across_only`): the shoe may be cut there, and the
+  front of what is left of it is the border, while its centre line is still the shoe's.
 
 This is done only for a foot that points towards the camera (its toe box faces the lens: a camera on the
 walker looking back at its user), with at least ``min_points`` such points.  The particles are left as they
@@ -168,3 +169,26 @@ def toes_in_view(
         inside = ((uv[..., 0] >= m) & (uv[..., 0] <= intrinsics.width - 1 - m)
                   & (uv[..., 1] >= m) & (uv[..., 1] <= intrinsics.height - 1 - m))
     return np.all(inside, axis=1)
+
+
+def across_only(legs: FloatArray, toes: FloatArray, sides: BoolArray) -> FloatArray:
+    """``toes`` ``(2, 3)`` with, for the ``sides`` ``(2,)`` given, only their offset across the tracked foot (floor
+    plane) kept: along the foot those toes are the tracked ones of ``legs`` ``(2, 5, 3)`` again.
+
+    A shoe cut by the image's border ends at the border along the foot, but what is left of it still gives its
+    centre line across the foot (on the sweeps the step width was worse without it: DEVELOPERS.md, thirty-first
+    session).  All in one floor-aligned frame (z up)."""
+    legs = np.asarray(legs, dtype=np.float64)
+    out = np.array(toes, dtype=np.float64)
+    for side in np.flatnonzero(np.asarray(sides, dtype=bool)):
+        toe = legs[side, TOE]
+        u = (toe - legs[side, HEEL])[:2]
+        norm = float(np.hypot(*u))
+        if not norm > 1e-9:
+            out[side] = toe
+            continue
+        u = u / norm
+        d = out[side, :2] - toe[:2]
+        out[side, :2] = toe[:2] + d - float(d @ u) * u
+        out[side, 2] = toe[2]
+    return out

@@ -100,7 +100,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from walker_gait.core import leg_model as lm
-from walker_gait.core.feet import ToeFit, measure_toes, toes_in_view
+from walker_gait.core.feet import ToeFit, across_only, measure_toes, toes_in_view
 from walker_gait.core.presence import PresenceTest, legs_in_view
 from walker_gait.core.leg_model import BodyFrame, Kinematics, StateLayout
 from walker_gait.core.likelihood import (
@@ -1089,11 +1089,12 @@ class LegTracker:
         if self.config.toe_from_data:
             camera = frame.body.to_body(np.zeros(3))
             toes, _ = measure_toes(pts_body, frame.fg_all_body, camera=camera, fit=self._toe_fit)
-            # a shoe cut by the image's border ends there, not at its toe box: keep the model's toe
+            # a shoe cut by the image's border ends there, not at its toe box: along the foot the model's toe stays;
+            # across it, what is left of the shoe still gives its centre line
             in_view = toes_in_view(frame.body.to_camera(pts_body), frame.body.to_camera(toes),
                                    intrinsics=self.intrinsics, fit=self._toe_fit)
             pts_body = pts_body.copy()
-            pts_body[in_view, TOE] = toes[in_view]
+            pts_body[:, TOE] = across_only(pts_body, toes, ~in_view)
         pose = LegPose(
             stamp=stamp,
             points=frame.body.to_camera(pts_body),
