@@ -998,20 +998,17 @@ class GaitAnalyzer:
         t_to = _hinge_time(tt, chans, rising=True, tc_lo=tc_lo, tc_hi=t_conf, drift=drift)
         if not math.isfinite(t_to):
             t_to = t_rest
-        if self._withdraw_hover(a, t_to):
-            self._state = GaitState.SWING_LEFT if a == 0 else GaitState.SWING_RIGHT
-            self._swing_heel_anchor = self._anchor_heel(k, a, t_rest)
-            self._swing_start_t = t_conf
-            self._swing_to_t = t_to  # the next heel strike is searched after the hover
-            return
-        conf = self._event_conf(t_to)
-        pos = self._cam_at(t_to, a, _T)
-        ev = GaitEvent(stamp=t_to, side=Side(a), kind=EventKind.TOE_OFF, position=pos, confidence=conf)
-        self._emit_event(ev)
-        self._feet[a].to.append(t_to)
-        for ps in self._pending_steps:  # opposite toe off closes the double support of a's step
-            if ps.t_end is None and ps.side == b:
-                ps.t_end = t_to
+        # the end of a hover (the strike withdrawn) is no toe off: the swing goes on, its next heel strike searched
+        # after this time
+        if not self._withdraw_hover(a, t_to):
+            conf = self._event_conf(t_to)
+            pos = self._cam_at(t_to, a, _T)
+            ev = GaitEvent(stamp=t_to, side=Side(a), kind=EventKind.TOE_OFF, position=pos, confidence=conf)
+            self._emit_event(ev)
+            self._feet[a].to.append(t_to)
+            for ps in self._pending_steps:  # opposite toe off closes the double support of a's step
+                if ps.t_end is None and ps.side == b:
+                    ps.t_end = t_to
         self._state = GaitState.SWING_LEFT if a == 0 else GaitState.SWING_RIGHT
         self._swing_heel_anchor = self._anchor_heel(k, a, t_rest)
         self._swing_start_t = t_conf
