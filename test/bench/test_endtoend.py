@@ -4,7 +4,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from walker_gait.bench.endtoend import IN_VIEW_LEAD_S, steps_in_view
+from walker_gait.bench.endtoend import IN_VIEW_LEAD_S, IN_VIEW_TAIL_S, at_walker, steps_in_view
+from walker_gait.core.segmentation import RoiConfig
+from walker_gait.core.types import ANKLE, FloorPlane
 
 
 def test_steps_in_view_need_a_second_with_the_user_in_view_before_the_heel_strike() -> None:
@@ -22,6 +24,38 @@ def test_steps_in_view_need_a_second_with_the_user_in_view_before_the_heel_strik
     # a shorter lead
     assert steps_in_view(np.array([3.5]), stamps, present, lead_s=0.4).tolist() == [True]
     assert steps_in_view(np.zeros(0), stamps, present).shape == (0,)
+    # a strike in the recording's last frames cannot be confirmed: with the benchmarks' tail it is not in view
+    assert IN_VIEW_TAIL_S == 0.1
+    last = stamps[-1]
+    got = steps_in_view(np.array([last - 0.2, last - 0.05, last]), stamps, np.ones(300, dtype=bool), tail_s=IN_VIEW_TAIL_S)
+    np.testing.assert_array_equal(got, [True, False, False])
+
+
+def test_at_walker_needs_both_ankles_in_the_walkers_region_of_interest() -> None:
+    """A user approaching from the side is in the image but not at the walker; the box's sideways limits widen by
+    the auto-centring shift; a camera pitched down sees the same floor-aligned box."""
+    roi = RoiConfig()
+    for pitch in (0.0, 0.5):
+        floor = FloorPlane.from_camera_pose(height=0.5, pitch=pitch)
+        rot, t = floor.walker_transform()
+
+        def cam(xw: float, yw: float) -> np.ndarray:  # a walker-frame floor point in the camera frame
+            return rot.T @ (np.array([xw, yw, 0.0]) - t)
+
+        frames = [((0.9, 0.10), (1.0, -0.10)),  # at the walker
+                  ((0.9, roi.left + roi.center_max_shift - 0.01), (1.0, 0.0)),  # the box followed the legs left
+                  ((0.9, roi.left + roi.center_max_shift + 0.05), (1.0, 0.0)),  # one ankle outside: approaching
+                  ((0.9, 0.0), (1.0, -(roi.right + roi.center_max_shift) - 0.05)),  # the other side
+                  ((roi.forward + 0.1, 0.05), (roi.forward + 0.2, -0.05)),  # too far back
+                  ((0.9, 0.05), (np.nan, np.nan))]  # no truth
+        truth = np.zeros((len(frames), 2, 5, 3))
+        for k, pair in enumerate(frames):
+            for side, (xw, yw) in enumerate(pair):
+                truth[k, side, ANKLE] = cam(xw, yw)
+        np.testing.assert_array_equal(at_walker(truth, floor), [True, True, False, False, False, False])
+        # a narrower box (no auto-centring)
+        narrow = RoiConfig(center_max_shift=0.0)
+        np.testing.assert_array_equal(at_walker(truth, floor, narrow), [True, False, False, False, False, False])
 
 
 def test_rendered_present_needs_one_leg_trackable_needs_both() -> None:

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from walker_gait.bench import sweep
-from walker_gait.core.types import HEEL, TOE, Side, Step
+from walker_gait.core.types import ANKLE, HEEL, TOE, Side, Step
 
 
 def _step(stamp: float, side: int, length: float, width: float) -> Step:
@@ -27,6 +27,8 @@ def _run(seed: int = 0) -> sweep.SessionRun:
     t = 60
     truth = rng.normal(0.0, 0.2, (t, 2, 5, 3)) + np.array([0.0, 0.0, 1.5])
     truth[:, :, TOE] = truth[:, :, HEEL] + np.array([0.0, 0.0, -0.26])  # feet 26 cm long, pointing at the camera
+    truth[:, :, ANKLE, 0] = np.array([0.1, -0.1])  # the ankles inside the walker's region of interest
+    truth[:, :, ANKLE, 2] = 1.0
     est = truth.copy()
     est[:, :, HEEL] += np.array([0.0, 0.0, -0.02])  # every heel 2 cm forward: foot 2 cm short
     gt = [_step(0.5, 0, 0.50, 0.10), _step(1.0, 1, 0.55, 0.12)]
@@ -78,6 +80,7 @@ def test_summarise_hand_built_errors() -> None:
     assert (s["gt_steps"], s["detected_steps"], s["matched_steps"]) == (2, 2, 2)
     assert s["precision"] == 1.0 and s["recall"] == 1.0
     assert (s["gt_steps_in_view"], s["matched_in_view"]) == (1, 1)  # the first step comes 0.5 s into the session
+    assert (s["gt_steps_in_image"], s["recall_in_image"]) == (1, 1.0)
     assert s["step_length_bias_cm"] == pytest.approx(1.0) and s["step_length_mae_cm"] == pytest.approx(1.0)
     assert s["step_width_bias_cm"] == pytest.approx(3.0)
     assert s["trailing_toe_median_cm"] == pytest.approx(4.0) and s["trailing_toe_mean_cm"] == pytest.approx(4.0)
@@ -121,6 +124,13 @@ def test_summarise_hand_built_errors() -> None:
     r = _run()
     r.est[10] = np.nan
     assert sweep.summarise([r])["frames_over_10cm_pct"] == pytest.approx(100 / 60)
+    # a user still making for the walker (a metre to its side) is in the image, not at the walker: that step is
+    # out of the recall in view and counted only in the older figure
+    a = _run()
+    a.truth[:20, 0, ANKLE, 0] = -1.0
+    s2 = sweep.summarise([a])
+    assert (s2["gt_steps_in_view"], s2["gt_steps_in_image"], s2["matched_in_view"]) == (0, 1, 0)
+    assert math.isnan(s2["recall_in_view"]) and s2["recall_in_image"] == 1.0
 
 
 def test_summary_errors_compare_the_session_cadence_and_speed_with_the_truth() -> None:

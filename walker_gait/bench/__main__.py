@@ -88,8 +88,10 @@ def section_endtoend(scenarios: tuple[str, ...], duration: float, seed: int) -> 
              "Step length / width error: mean ± SD of |detected − true| over matched steps, cm (the seed paper's",
              "Tables 2-3 report the combined cue at 2.73-3.87 cm length and 1.75-3.04 cm width on real subjects).",
              "Joint error: mean 3D distance over frames where both legs are in view, cm.",
-             "Recall (in view): over the true steps whose heel strike follows at least 1 s with the user in view (a leg "
-             "hidden behind the other still counts; absent_start: the user walks in from out of view), matched/true.",
+             "Recall (in view): over the true steps whose heel strike follows at least 1 s with the user in view and at "
+             "the walker (both ankles in its region of interest; a leg hidden behind the other still counts; "
+             "absent_start: the user walks in from out of view and from the side) and comes at least 0.1 s before the "
+             "recording ends, matched/true.",
              "",
              "| scenario | cue | step length err cm | step width err cm | steps det/true (matched) | precision | "
              "recall (in view) | HS timing (median, frames) | cadence err % | hip | knee | ankle | heel | toe | frames > 10 cm % | "

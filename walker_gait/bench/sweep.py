@@ -20,7 +20,10 @@ so with the analyzer unchanged the figures are the sweep's own.
 Figures (``summary.json``; lengths in cm): joint errors over frames with both legs in view, the share
 of those frames with a mean error > 10 cm, errors on the *well-tracked* frames (mean error ≤ 10 cm:
 little moved by the chaos), the model foot's length bias, step detection (recall also over the steps
-in view, :func:`~walker_gait.bench.endtoend.steps_in_view`), step length/width error (over every matched
+in view: the user in the image and at the walker for a second before the strike and the recording going on for
+0.1 s after it, :func:`~walker_gait.bench.endtoend.steps_in_view`, :func:`~walker_gait.bench.endtoend.at_walker`;
+and, as before the thirty-second session, over the steps with the user anywhere in the image), step length/width
+error (over every matched
 step, and over the confident ones the gait summaries pool), and per scenario
 the progression error of the trailing foot's toe at each true heel strike (the reference point of the
 step vector).  ``--oracle`` also re-runs the gait analyzer on the tracked poses with the true toes,
@@ -325,10 +328,10 @@ def summarise(runs: list[SessionRun]) -> dict[str, Any]:
     """Figures of a set of runs (one tracker seed, or several pooled)."""
     import warnings
 
-    from walker_gait.bench.endtoend import steps_in_view
+    from walker_gait.bench.endtoend import IN_VIEW_TAIL_S, at_walker, steps_in_view
 
     err_all, good_all, flen = [], [], []
-    gt = det = matched = in_view = matched_in_view = 0
+    gt = det = matched = in_view = matched_in_view = in_image = matched_in_image = 0
     with warnings.catch_warnings():
         warnings.filterwarnings("ignore", message="Mean of empty slice", category=RuntimeWarning)
         for r in runs:
@@ -343,9 +346,18 @@ def summarise(runs: list[SessionRun]) -> dict[str, Any]:
             gt += len(r.gt)
             det += len(r.det)
             matched += len(r.pairs)
-            iv = steps_in_view(np.array([s.stamp for s in r.gt]), r.stamps, r.present) if r.gt else np.zeros(0, bool)
+            if r.gt:
+                hs = np.array([s.stamp for s in r.gt])
+                floor = FloorPlane(normal=r.floor_normal, offset=r.floor_offset)
+                iv = steps_in_view(hs, r.stamps, r.present & at_walker(r.truth, floor), tail_s=IN_VIEW_TAIL_S)
+                # the older, looser count: the user anywhere in the image, up to the last frame
+                ii = steps_in_view(hs, r.stamps, r.present)
+            else:
+                iv = ii = np.zeros(0, bool)
             in_view += int(iv.sum())
             matched_in_view += sum(1 for t, _ in r.pairs if iv[t])
+            in_image += int(ii.sum())
+            matched_in_image += sum(1 for t, _ in r.pairs if ii[t])
         e = np.concatenate(err_all) if err_all else np.zeros((0, 2, 5))
         g = np.concatenate(good_all) if good_all else np.zeros((0, 2, 5))
         per_frame = np.nanmean(e, axis=(1, 2)) if len(e) else np.zeros(0)
@@ -360,7 +372,8 @@ def summarise(runs: list[SessionRun]) -> dict[str, Any]:
     out.update(gt_steps=gt, detected_steps=det, matched_steps=matched, gt_steps_in_view=in_view,
                matched_in_view=matched_in_view, precision=matched / det if det else math.nan,
                recall=matched / gt if gt else math.nan,
-               recall_in_view=matched_in_view / in_view if in_view else math.nan)
+               recall_in_view=matched_in_view / in_view if in_view else math.nan,
+               gt_steps_in_image=in_image, recall_in_image=matched_in_image / in_image if in_image else math.nan)
     out.update(_swaps(runs))
     out.update(_step_errors(runs))
     out.update(_summary_errors(runs))
@@ -423,7 +436,8 @@ _ROWS = (("heel err cm", ("joint_err_cm", "heel")), ("toe err cm", ("joint_err_c
          ("swapped frames %", ("swapped_frames_pct",)), ("runs with swaps", ("runs_with_swaps",)),
          ("good-frame heel cm", ("good_frame_err_cm", "heel")), ("good-frame toe cm", ("good_frame_err_cm", "toe")),
          ("foot length bias cm", ("foot_length_bias_cm",)), ("matched steps", ("matched_steps",)),
-         ("recall in view", ("recall_in_view",)), ("precision", ("precision",)),
+         ("recall in view", ("recall_in_view",)), ("recall, user in image", ("recall_in_image",)),
+         ("precision", ("precision",)),
          ("step length MAE cm", ("step_length_mae_cm",)), ("step length median abs err cm", ("step_length_median_abs_cm",)),
          ("step length bias cm", ("step_length_bias_cm",)),
          ("step width MAE cm", ("step_width_mae_cm",)), ("step width bias cm", ("step_width_bias_cm",)),
