@@ -1357,13 +1357,13 @@ class GaitAnalyzer:
         if c.planted_drift_ramp or c.landing_toe_fit_s > 0:
             land = self._landing_fit(a, ps.t_hs, t_end + c.landing_toe_fit_s)
         land_toe = land if c.landing_toe_fit_s > 0 else None
+        late_drift = None
+        # the landing foot's drift once it is flat: the walker's motion past planted feet then; a slope needs
+        # the weight of three frames (one seen frame among hidden ones is a point, not a line) and a walker's speed
+        if c.planted_drift_ramp and land is not None and land.n_eff >= 3.0 and (
+                0.0 < float(np.hypot(*land.slope)) <= _MAX_DRIFT_SPEED):
+            late_drift = (land.slope, land.centre)
         if idx.size:
-            late_drift = None
-            # the landing foot's drift once it is flat: the walker's motion past planted feet then; a slope needs
-            # the weight of three frames (one seen frame among hidden ones is a point, not a line) and a walker's speed
-            if c.planted_drift_ramp and land is not None and land.n_eff >= 3.0 and (
-                    0.0 < float(np.hypot(*land.slope)) <= _MAX_DRIFT_SPEED):
-                late_drift = (land.slope, land.centre)
             toe_b = self._planted_point(idx, b, t_from, fit_only=fit_only, late_drift=late_drift)
             toe_a = None if land_toe is None else land_toe.at(self._t[idx])
             if toe_a is not None:
@@ -1394,7 +1394,8 @@ class GaitAnalyzer:
             near = self._valid_range(ps.t_hs - 0.1, ps.t_hs + 0.1)
             if near.size:
                 kn = near[int(np.argmin(np.abs(self._t[near] - ps.t_hs)))]
-                toe_b = self._planted_point(np.array([kn]), b, t_from, fit_only=bool(self._weight[kn, b, _T] < 0.5))[0]
+                toe_b = self._planted_point(np.array([kn]), b, t_from, fit_only=bool(self._weight[kn, b, _T] < 0.5),
+                                            late_drift=late_drift)[0]
                 d = self._raw[kn, a, _H, :2] - toe_b - o
                 if land_toe is not None:
                     # along the line of progression toe to toe, as with a double support (the tracked heel of a
