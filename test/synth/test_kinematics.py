@@ -74,7 +74,7 @@ def test_gt_steps_consistent_with_heel_positions(session: Session) -> None:
     start = kin.evaluate(np.array([0.0])).heel[0]  # standing start footprints (both planted)
     # footprints measured from the kinematics: (time, side, heel xy)
     prints = [(-np.inf, 0, start[0, :2]), (-np.inf, 1, start[1, :2])]
-    strides: list[np.ndarray] = []
+    strides: list[tuple[int, np.ndarray]] = []  # (walking bout, stride)
     for e, s in zip(hs_events, session.steps, strict=True):
         heel = kin.evaluate(np.array([e.stamp])).heel[0, e.side]
         assert abs(heel[2]) < 1e-9
@@ -82,14 +82,16 @@ def test_gt_steps_consistent_with_heel_positions(session: Session) -> None:
         np.testing.assert_allclose(heel, s.heel_world, atol=1e-9)
         same = [p for p in prints if p[1] == e.side][-1]
         opp = [p for p in prints if p[1] != e.side][-1]
-        strides.append(heel[:2] - same[2])
-        u = np.sum(strides[-4:], axis=0)
+        strides.append((e.bout, heel[:2] - same[2]))
+        # the line of progression from this bout's strides only (a walk in from the side, a stop, a walk on)
+        assert s.bout == e.bout
+        u = np.sum([v for b, v in strides if b == e.bout][-4:], axis=0)
         u = u / np.linalg.norm(u)
         d = heel[:2] - opp[2]
         assert s.stamp == e.stamp and s.side == e.side
         assert s.step_length == pytest.approx(d @ u, abs=1e-6)
         assert s.step_width == pytest.approx(abs(d[0] * u[1] - d[1] * u[0]), abs=1e-6)
-        assert s.stride_length == pytest.approx(strides[-1] @ u, abs=1e-6)
+        assert s.stride_length == pytest.approx(strides[-1][1] @ u, abs=1e-6)
         if np.isfinite(opp[0]):
             assert s.step_time == pytest.approx(e.stamp - opp[0], abs=1e-9)
         else:
@@ -207,3 +209,16 @@ def test_narrow_steps_keep_their_width_at_heel_strike() -> None:
     s = _session("occlusion", seed=4, duration=12.0)
     widths = [x.step_width for x in s.steps if np.isfinite(x.stride_time)][1:-1]
     assert len(widths) >= 8 and np.mean(widths) < 0.05
+
+
+def test_a_walk_after_a_stop_takes_its_own_line_of_progression() -> None:
+    """``absent_start``: the user walks in diagonally from the side, stops at the walker and walks off with it.
+    The first step of the walk measures along the walk's own direction, not the approach's: with the approach
+    strides in the line of progression that step came out 32 cm wide and 24 cm long (session 963)."""
+    s = _session("absent_start", seed=963, duration=14.0)
+    walk = [x for x in s.steps if x.bout == 1]
+    assert len(walk) >= 6
+    assert all(x.step_width < 0.2 for x in walk), [round(x.step_width, 3) for x in walk]
+    # the approach itself (bout 0) runs diagonally in the world: its line is its own as well
+    approach = [x for x in s.steps if x.bout == 0][2:]
+    assert approach and all(x.step_width < 0.2 for x in approach)
