@@ -170,8 +170,8 @@ TRACKED = REPO / "test" / "core" / "data" / "tracked_sessions.npz"
 (``asymmetric``, set A, 96 particles, tracker seed 0), ``b541`` (``asymmetric``, set B, 192 particles, seed 0),
 ``a132`` (``occlusion``, set A, 192 particles, seed 1), ``a160`` (``absent_start``, set A, 14 s, the default preset
 of the twenty-eighth session, seed 0), ``a131`` (``occlusion``, set A, the twenty-ninth session's default, seed 0),
-``c910`` (``slow_elderly``, set C, the thirty-first session's default, seed 0) and ``a120`` (``baggy_trousers``, set A,
-the same, seed 0):
+``c910`` (``slow_elderly``, set C, the thirty-first session's default, seed 0), ``a120`` (``baggy_trousers``, set A,
+the same, seed 0) and ``c931`` (``occlusion``, set C, the same, seed 1):
 per frame the LegPose points, visibility, status and
 confidence and the pipeline's floor, plus the true heel strikes.  Poses as the live and offline pipelines give
 them to the analyzer."""
@@ -448,6 +448,24 @@ def test_a_strike_with_no_double_support_frame_takes_the_walkers_late_drift_for_
     assert len(pairs) >= 10 and not extra
     assert abs(err[0]) < 0.04, err[0]  # measured +0.8 cm
     assert np.mean(np.abs(err)) < 0.025  # measured 1.2 cm (2.2 before)
+
+
+def test_a_landing_foot_held_heel_up_takes_its_footprint_from_its_planted_toe() -> None:
+    """Session c931 (``occlusion``, set C, tracker seed 1): the tracker holds several landing feet toe-down, their
+    heels above the planted band for the whole window after the strike, so no frame counts as flat and the step
+    fell back to the tracked landing heel (-5.9 and -6.8 cm).  The toe, down within a few frames of the strike
+    and staying down, gives the footprint instead (``landing_toe_only``)."""
+    poses, floors, gt = _tracked("c931")
+
+    def errors(config: GaitConfig) -> FloatArray:
+        det = run_analyzer(poses, floors, config=config).steps
+        pairs, _, extra = match_steps(gt, det)
+        assert len(pairs) >= 10 and not extra
+        return np.array([det[j].step_length - gt[i].step_length for i, j in pairs])
+
+    err, off = errors(GaitConfig()), errors(GaitConfig(landing_toe_only=False))
+    assert np.mean(np.abs(err)) < 0.035 < np.mean(np.abs(off)), (np.mean(np.abs(err)), np.mean(np.abs(off)))  # 2.95, 4.26
+    assert np.sum(np.abs(err) > 0.05) < np.sum(np.abs(off) > 0.05)  # 2 steps off by more than 5 cm, 4 before
 
 
 def test_a_step_whose_landing_foot_was_not_seen_is_doubted() -> None:

@@ -78,6 +78,7 @@ __all__ = [
 
 _H, _T = 0, 1  # heel / toe index in the internal (2 feet, 2 points) arrays
 _HINGE_POWERS = (1.0, 1.5, 2.0, 3.0)
+_TOE_DOWN_S = 0.15  # s: a landing foot's toe is down this soon after its heel strike (foot flat: ~0.06 s in walking)
 _MAX_DRIFT_SPEED = 2.0  # m/s: faster than a walker user walks; a planted foot's drift beyond it is a bad fit
 
 
@@ -199,6 +200,11 @@ class GaitConfig:
     """Time (s) after the double support over which the landing foot's toe, in the frames in which that foot is
     flat, gives its footprint for the step vector (toe to toe; the camera sees the toes, the heels are hidden
     behind them).  Steps are emitted this much later.  0: the landing foot's tracked heel instead."""
+    landing_toe_only: bool = True
+    """When the landing foot has fewer than three flat frames (heel and toe in the planted band) for its footprint
+    (``landing_toe_fit_s``), take the frames with its toe planted instead: a tracker that pitches a planted foot
+    toe-down holds its heel centimetres up through the stance (trousers over the heel), and the step then fell back
+    to the tracked landing heel."""
     landing_visibility: float = 0.5
     """Mean visibility (``LegPose.visibility`` of the foot segment, 0.1 s before to 0.2 s after the heel strike)
     of the landing foot below which a step's confidence is scaled down in proportion (``v / landing_visibility``):
@@ -1285,14 +1291,29 @@ class GaitAnalyzer:
         A planted toe only drifts through the walker frame with the walker's smooth motion, and the landing foot
         comes flat only after its heel strike, so the fit (:meth:`_DriftFit.at`) reaches back into the double
         support from the frames that follow it; its slope is that drift, 0 when the weight is all at one instant.
-        None with fewer than three flat frames.
+        None with fewer than three flat frames.  With ``landing_toe_only``, fewer than three flat frames and the toe
+        planted within ``_TOE_DOWN_S`` of ``t_lo``, in at least three frames and still in the window's last frame (a foot
+        that has landed stays down),
+        the frames with the toe planted give the fit, unless it drifts faster than a walker moves.
         """
         series = self._raw[:, a, _T, :2]
-        src = self._valid_range(t_lo, t_hi)
-        src = src[(self._weight[src, a, _T] >= 0.5) & (self._weight[src, a, _H] >= 0.5)
-                  & np.all(np.isfinite(series[src]), axis=1)]
+        window = self._valid_range(t_lo, t_hi)
+        toe_down = window[(self._weight[window, a, _T] >= 0.5) & np.all(np.isfinite(series[window]), axis=1)]
+        src = toe_down[self._weight[toe_down, a, _H] >= 0.5]
+        toe_only = (src.size < 3 and self.config.landing_toe_only and toe_down.size >= 3
+                    and toe_down[-1] == window[-1] and float(self._t[toe_down[0]]) <= t_lo + _TOE_DOWN_S)
+        if toe_only:
+            src = toe_down
         if src.size < 3:
             return None
+        fit = self._drift_fit(src, a)
+        if toe_only and float(np.hypot(*fit.slope)) > _MAX_DRIFT_SPEED:
+            return None
+        return fit
+
+    def _drift_fit(self, src: NDArray[np.intp], a: int) -> _DriftFit:
+        """Weighted linear fit over time of foot ``a``'s toe (xy) in frames ``src`` (see :meth:`_landing_fit`)."""
+        series = self._raw[:, a, _T, :2]
         ts = self._t[src]
         xy = series[src]
         w = np.maximum(self._vis[src, a], 0.05) ** 2 * np.maximum(self._q[src], 1e-3)
