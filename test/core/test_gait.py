@@ -468,6 +468,32 @@ def test_a_landing_foot_held_heel_up_takes_its_footprint_from_its_planted_toe() 
     assert np.sum(np.abs(err) > 0.05) < np.sum(np.abs(off) > 0.05)  # 2 steps off by more than 5 cm, 4 before
 
 
+def test_a_trailing_foot_never_seen_flat_costs_confidence_only_where_its_offset_is_used(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """The trailing foot's flat heel-toe offset enters a step only through the heel formulas (no landing-toe fit,
+    no double-support frame); toe to toe it is not used.  A foot the analyzer never saw flat enough for it (at 15 Hz
+    most stances: few frames, and a tracked heel that is seldom in the planted band) made every step's confidence
+    half, so the summaries left out most steps.  Here the offsets all come from the fallback: the steps measured
+    toe to toe keep their confidence, the ones without a landing-toe fit are halved."""
+    sim = simulate_gait(SCENARIOS["normal"], rng=np.random.default_rng(0))
+    base = run_analyzer(sim.poses, sim.floor).steps
+    real_get = GaitAnalyzer._o_get
+
+    def never_flat(self: GaitAnalyzer, f: int) -> tuple[FloatArray | None, bool]:
+        o, _ = real_get(self, f)
+        return o, True
+
+    monkeypatch.setattr(GaitAnalyzer, "_o_get", never_flat)
+    steps = run_analyzer(sim.poses, sim.floor).steps
+    assert [s.stamp for s in steps] == [s.stamp for s in base]
+    assert len(steps) >= 8
+    toe_to_toe = [s.confidence == pytest.approx(b.confidence) for s, b in zip(steps, base, strict=True)]
+    assert sum(toe_to_toe) >= len(steps) - 1  # measured: all
+    monkeypatch.setattr(GaitAnalyzer, "_landing_fit", lambda self, a, lo, hi: None)
+    heel = run_analyzer(sim.poses, sim.floor).steps
+    assert all(h.confidence <= 0.5 * b.confidence + 1e-9 for h, b in zip(heel, base, strict=True))
+
+
 def test_a_step_whose_landing_foot_was_not_seen_is_doubted() -> None:
     """The tracker places a foot it does not see by its motion model; a step whose landing foot was hidden from
     just before its heel strike to 0.2 s after it (the frames that time the strike and place the footprint) gets

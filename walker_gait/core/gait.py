@@ -1369,6 +1369,7 @@ class GaitAnalyzer:
         if o is None:
             o = np.array([-0.0, 0.0])
             fallback = True
+        o_used = False  # whether the trailing foot's flat heel-toe offset entered the step vector (heel formulas)
         lateral = None  # the step vector's component across the line of progression, from the ankles
         # b is the trailing foot, often hidden behind the leading leg by now: its toe comes from the frames
         # in which it was seen (see _planted_point)
@@ -1399,6 +1400,7 @@ class GaitAnalyzer:
                     d = (toe_a - toe_b).mean(axis=0)
             else:
                 d = (self._raw[idx, a, _H, :2] - toe_b - o).mean(axis=0)
+                o_used = True
             # the trailing ankle, hidden like its toe, continues its seen drift like it
             ankle_b = self._planted_point(idx, b, t_from, fit_only=fit_only, late_drift=late_drift, ankle=True)
             if c.heel_rise_travel and self._o_n[b] > 0 and self._oa_n[b] > 0:
@@ -1418,6 +1420,7 @@ class GaitAnalyzer:
                 toe_b = self._planted_point(np.array([kn]), b, t_from, fit_only=bool(self._weight[kn, b, _T] < 0.5),
                                             late_drift=late_drift)[0]
                 d = self._raw[kn, a, _H, :2] - toe_b - o
+                o_used = True
                 if land_toe is not None:
                     # along the line of progression toe to toe, as with a double support (the tracked heel of a
                     # strike timed this late is what went wrong); across it, heel to heel as before
@@ -1483,7 +1486,7 @@ class GaitAnalyzer:
                 double = (to_b_in[-1] - t_a0) + (to_a_last - t_b)
         slots = self._slot_quality(t_b if t_b is not None else t1 - 1.0, t_end)
         conf = min(ps.hs_conf, slots)
-        if fallback:
+        if fallback and o_used:  # an offset from frames that were not flat (toe to toe needs none)
             conf *= 0.5
         if c.landing_visibility > 0:
             seen = self._valid_range(t1 - 0.1, t1 + 0.2)
