@@ -1291,10 +1291,10 @@ class GaitAnalyzer:
         A planted toe only drifts through the walker frame with the walker's smooth motion, and the landing foot
         comes flat only after its heel strike, so the fit (:meth:`_DriftFit.at`) reaches back into the double
         support from the frames that follow it; its slope is that drift, 0 when the weight is all at one instant.
-        None with fewer than three flat frames.  With ``landing_toe_only``, fewer than three flat frames and the toe
-        planted within ``_TOE_DOWN_S`` of ``t_lo``, in at least three frames and still in the window's last frame (a foot
-        that has landed stays down),
-        the frames with the toe planted give the fit, unless it drifts faster than a walker moves.
+        None with fewer than three flat frames.  With ``landing_toe_only`` and fewer than three flat frames, the
+        frames with the toe planted give the fit if the toe is down within ``_TOE_DOWN_S`` of ``t_lo``, in at least
+        three frames and still in the window's last frame (a foot that has landed stays down), and the fit drifts no
+        faster than a walker moves.
         """
         series = self._raw[:, a, _T, :2]
         window = self._valid_range(t_lo, t_hi)
