@@ -69,6 +69,28 @@ def test_other_foot_and_high_points_are_not_the_toe() -> None:
     assert abs(got[1, 0] - toes[1, 0]) < 0.012
 
 
+def test_a_foot_tracked_with_the_wrong_toe_out_takes_the_toe_box_centre_line() -> None:
+    """Across the foot the toe is the centre line of the toe box (``toe_box``), not of the whole shoe: with the tracked
+    foot turned by a yaw error, the whole shoe's centre sits half a foot back and turns the measured toe by half the
+    error (synthetic sweeps: toes 1.5 cm too close together)."""
+    import math
+
+    rng = np.random.default_rng(7)
+    heels, toes, pts = _scene(rng)
+    a = math.radians(10.0)  # each tracked foot turned 10 degrees outward about its heel
+    turned = toes.copy()
+    for side, sign in ((0, 1.0), (1, -1.0)):
+        length = toes[side, 0] - heels[side, 0]
+        turned[side, :2] = heels[side, :2] + length * np.array([math.cos(a), sign * math.sin(a)])
+    legs = _legs(heels, turned)
+    got, measured = measure_toes(legs, pts, camera=CAMERA)
+    whole, _ = measure_toes(legs, pts, camera=CAMERA, fit=ToeFit(toe_box=1.0))
+    assert measured.all()
+    lateral = np.abs(got[:, 1] - toes[:, 1])
+    assert np.all(lateral < 0.007), lateral  # measured 0.5 cm (tracked: 4.5 cm)
+    assert np.all(lateral < 0.6 * np.abs(whole[:, 1] - toes[:, 1]))  # the whole shoe's centre: 1.1 cm
+
+
 def test_unmeasured_feet_keep_their_toes() -> None:
     rng = np.random.default_rng(5)
     heels, toes, pts = _scene(rng)
@@ -104,6 +126,8 @@ def test_rejects_bad_input() -> None:
         ToeFit(pitch_deadband=-0.1)
     with pytest.raises(ValueError, match="border_px"):
         ToeFit(border_px=-1.0)
+    with pytest.raises(ValueError, match="toe_box"):
+        ToeFit(toe_box=0.0)
 
 
 def test_a_foot_on_its_toes_is_measured_at_the_sole_tip() -> None:

@@ -11,8 +11,9 @@ filter has placed the foot, the toe it reports is measured from the foreground a
   of the tracked foot's heel-to-toe line and nearer to it than to the other foot's;
 * along the tracked foot's direction (on the floor) the toe is the ``percentile`` of those points'
   positions, up to ``reach`` ahead of the tracked toe (beyond, the other leg's trouser hem swinging past
-  a foot in its heel rise): the front of the toe box; across it, the median of their lateral positions (the shoe's
-  centre line);
+  a foot in its heel rise): the front of the toe box; across it, the median of the lateral positions of those within
+  ``toe_box`` of that front (the toe box's centre line: the whole shoe's centre lies half a foot back, where a yaw
+  error of the tracked foot has moved it half as far);
 * a foot pitched up on its toes (late stance) leans its toe box forward over the sole's tip: each point's
   position along the foot is taken back by its height above the tip times the tangent of the tracked foot's
   heel-up pitch beyond ``pitch_deadband`` (the filter holds flat feet a few degrees heel-up);
@@ -59,6 +60,7 @@ class ToeFit:
     pitch_deadband: float = 0.1  # rad: heel-up pitch of the tracked foot below which it counts as flat
     min_points: int = 20  # fewer points near a foot leave its toe as tracked
     border_px: float = 4.0  # a tracked or measured toe this near the image's border (pixels): the shoe may be cut there
+    toe_box: float = 0.08  # the toe's offset across the foot is the median of the points this far behind the front (the toe box; the whole shoe's centre turns with a yaw error of the tracked foot: its middle is half a foot back)
 
     def __post_init__(self) -> None:
         if not (0.0 <= self.min_height < self.max_height and self.radius > 0.0):
@@ -70,6 +72,8 @@ class ToeFit:
             raise ValueError(f"pitch_deadband must be >= 0, got {self.pitch_deadband}")
         if not 0.0 < self.percentile <= 100.0:
             raise ValueError(f"percentile must be in (0, 100], got {self.percentile}")
+        if not self.toe_box > 0.0:
+            raise ValueError(f"toe_box must be > 0, got {self.toe_box}")
         if not self.border_px >= 0.0:
             raise ValueError(f"border_px must be >= 0, got {self.border_px}")
         if self.min_points < 1:
@@ -141,7 +145,9 @@ def measure_toes(
         if pitch > 0.0:
             s = s - np.maximum(near[:, 2] - max(float(toe[2]), 0.0), 0.0) * math.tan(min(pitch, _MAX_PITCH))
         along = float(np.percentile(s, fit.percentile))
-        across = float(np.median(rel @ v))
+        lat = rel @ v
+        box = s >= along - fit.toe_box
+        across = float(np.median(lat[box] if int(box.sum()) >= fit.min_points else lat))
         toes[side, :2] = heel[:2] + along * u + across * v
         measured[side] = True
     return toes, measured
