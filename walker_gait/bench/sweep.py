@@ -82,6 +82,11 @@ class SessionRun:
     def scenario(self) -> str:
         return self.key.split(":")[0]
 
+    @property
+    def true_floor(self) -> FloorPlane:
+        """The session's true floor plane (camera frame)."""
+        return FloorPlane(normal=self.floor_normal, offset=self.floor_offset, rms=0.0, inlier_ratio=1.0, valid=True)
+
 
 def session_list(scenarios: tuple[str, ...], per_scenario: int, base_seed: int) -> list[tuple[str, int]]:
     """``(scenario, session seed)``: seeds ``base_seed + 10 k + j`` for session ``j`` of scenario ``k`` of
@@ -348,8 +353,7 @@ def summarise(runs: list[SessionRun]) -> dict[str, Any]:
             matched += len(r.pairs)
             if r.gt:
                 hs = np.array([s.stamp for s in r.gt])
-                floor = FloorPlane(normal=r.floor_normal, offset=r.floor_offset)
-                iv = steps_in_view(hs, r.stamps, r.present & at_walker(r.truth, floor), tail_s=IN_VIEW_TAIL_S)
+                iv = steps_in_view(hs, r.stamps, r.present & at_walker(r.truth, r.true_floor), tail_s=IN_VIEW_TAIL_S)
                 # the older, looser count: the user anywhere in the image, up to the last frame
                 ii = steps_in_view(hs, r.stamps, r.present)
             else:
@@ -402,8 +406,7 @@ def oracle(runs: list[SessionRun], points: tuple[int, ...], gait: GaitConfig | N
             poses.append(LegPose(stamp=float(r.stamps[i]), points=p if ok else np.full((2, 5, 3), np.nan),
                                  status=TrackStatus.TRACKING if ok else TrackStatus.NO_USER, confidence=1.0 if ok else 0.0,
                                  visibility=vis))
-        floor = FloorPlane(normal=r.floor_normal, offset=r.floor_offset, rms=0.0, inlier_ratio=1.0, valid=True)
-        subs.append(replace(r, poses=poses, floors=[floor] * len(poses)))
+        subs.append(replace(r, poses=poses, floors=[r.true_floor] * len(poses)))
     subs = reanalyse(subs, gait)
     out = {"matched_steps": float(sum(len(s.pairs) for s in subs))}
     out.update(_step_errors(subs))
