@@ -14,9 +14,11 @@ filter has placed the foot, the toe it reports is measured from the foreground a
   a foot in its heel rise): the front of the toe box; across it, the median of the lateral positions of those within
   ``toe_box`` of that front (the toe box's centre line: the whole shoe's centre lies half a foot back, where a yaw
   error of the tracked foot has moved it half as far);
-* a foot pitched up on its toes (late stance) leans its toe box forward over the sole's tip: each point's
-  position along the foot is taken back by its height above the tip times the tangent of the tracked foot's
-  heel-up pitch beyond ``pitch_deadband`` (the filter holds flat feet a few degrees heel-up);
+* a foot pitched up on its toes (late stance) leans its toe box forward over the sole's tip: the points are
+  turned back flat about the tip by the tracked foot's heel-up pitch beyond ``pitch_deadband`` (the filter holds
+  flat feet a few degrees heel-up), the tip on the floor (where a foot in its heel rise keeps it, whatever height
+  the filter holds it at) unless the tracked one is above ``min_height`` (a foot in the air), and the front is
+  taken from the points at least ``min_height`` above the sole: what the floor cut leaves of the same shoe flat;
 * the toe's height stays the tracked one, and nothing else of the pose moves;
 * a foot whose tracked or measured toe lies at the image's border (:func:`toes_in_view`) keeps its tracked toe
   along the foot and only the measured offset across it (:func:`across_only`): the shoe may be cut there, and the
@@ -140,11 +142,25 @@ def measure_toes(
             continue
         near, rel, s = near[shoe], rel[shoe], s[shoe]
         # a foot up on its toes (late stance) leans its toe box forward over the sole's tip, which stays on the
-        # floor: a point h above the tip lies h tan(pitch) ahead of it (rigid shoe)
+        # floor (rigid shoe)
         pitch = math.atan2(float(heel[2] - toe[2]), norm) - fit.pitch_deadband
+        front = s
         if pitch > 0.0:
-            s = s - np.maximum(near[:, 2] - max(float(toe[2]), 0.0), 0.0) * math.tan(min(pitch, _MAX_PITCH))
-        along = float(np.percentile(s, fit.percentile))
+            # into the shoe's own frame: turned back flat about its tip (on the floor, where a foot in its heel rise
+            # keeps it, unless the tracked tip is above the floor cut: a foot in the air), along the sole and height
+            # above it; the front is taken from what stands `min_height` above the sole, what the floor cut leaves of
+            # the same shoe flat.  Leaned about the tracked tip's own height, the toe moved with it: the filter holds
+            # a quarter of the tips in heel rise over a centimetre up, and their toes read about 1 cm further forward
+            # than the same shoe's flat, so steps from a trailing foot in heel rise to a flat landing one came out
+            # short (DEVELOPERS.md, thirty-third session)
+            p = min(pitch, _MAX_PITCH)
+            ds = s - norm
+            z_tip = float(toe[2]) if float(toe[2]) >= fit.min_height else 0.0
+            dz = np.maximum(near[:, 2] - z_tip, 0.0)
+            s = norm + ds * math.cos(p) - dz * math.sin(p)
+            above = ds * math.sin(p) + dz * math.cos(p) >= fit.min_height
+            front = s[above] if int(above.sum()) >= fit.min_points else s
+        along = float(np.percentile(front, fit.percentile))
         lat = rel @ v
         box = s >= along - fit.toe_box
         across = float(np.median(lat[box] if int(box.sum()) >= fit.min_points else lat))
