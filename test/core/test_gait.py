@@ -581,26 +581,53 @@ def test_step_width_survives_foot_yaw_errors() -> None:
 
 def test_step_width_of_toed_out_feet_is_that_of_their_footprints() -> None:
     """Exact leg points of synthetic sessions (``synth``, 'normal', toe-out 8-10°): the trailing foot in its heel
-    rise pivots about its toe, its ankle travels forward along the foot and, toed out, sideways.  Taken back
-    (``heel_rise_travel``), step widths are those of the footprints (measured: MAE 0.43 cm, bias -0.03); left in,
-    0.94 cm too wide on average."""
+    rise pivots about its toe, its ankle travels forward along the foot and, toed out, sideways.  The width takes
+    that foot's heel from its last flat frames (``width_flat_trailing_s``: MAE 0.43 cm, bias -0.03); from its
+    ankle at the strike with the travel taken back (``heel_rise_travel``), 0.43 cm, bias -0.03; left in, 0.93 cm
+    too wide on average."""
     from walker_gait.bench.endtoend import _gt_as_steps
     from walker_gait.synth import SessionSpec, generate_session
 
-    errors: dict[bool, list[float]] = {True: [], False: []}
+    configs = {"flat": GaitConfig(), "travel": GaitConfig(width_flat_trailing_s=0.0),
+               "neither": GaitConfig(width_flat_trailing_s=0.0, heel_rise_travel=False)}
+    errors: dict[str, list[float]] = {k: [] for k in configs}
     for seed in range(3):
         s = generate_session(SessionSpec.preset("normal", duration=8.0, toe_out_deg=(8.0, 10.0)),
                              rng=np.random.default_rng(seed))
         poses = [LegPose(stamp=float(t), points=np.asarray(p, dtype=float)) for t, p in zip(s.stamps, s.leg_points, strict=True)]
         gt = _gt_as_steps(s)
-        for on in (True, False):
-            ga = run_analyzer(poses, s.params.mount.floor_plane(), config=GaitConfig(heel_rise_travel=on))
+        for name, cfg in configs.items():
+            ga = run_analyzer(poses, s.params.mount.floor_plane(), config=cfg)
             pairs, _, _ = match_steps(gt, ga.steps)
             assert len(pairs) == len(gt) == len(ga.steps)
-            errors[on] += [ga.steps[j].step_width - gt[i].step_width for i, j in pairs]
-    on, off = np.array(errors[True]), np.array(errors[False])
-    assert np.abs(on).mean() < 0.005 and abs(on.mean()) < 0.002
+            errors[name] += [ga.steps[j].step_width - gt[i].step_width for i, j in pairs]
+    for name in ("flat", "travel"):
+        e = np.array(errors[name])
+        assert np.abs(e).mean() < 0.005 and abs(e.mean()) < 0.002, name
+    off = np.array(errors["neither"])
     assert np.abs(off).mean() > 0.008 and off.mean() > 0.006
+
+
+def test_step_width_takes_the_trailing_heel_from_its_last_flat_frames() -> None:
+    """The tracker rolls a trailing foot outward as its heel rises (its ankle 3 cm to the side, in view): the
+    step width takes that foot's heel from where it stood flat (measured: MAE 0.19 cm); from its ankle at the
+    strike, the roll goes into every width (2.37 cm)."""
+    spec = replace(SCENARIOS["normal"], walker_lag_s=0.6)
+    sim = simulate_gait(spec, rng=np.random.default_rng(0))
+    rot, off = sim.floor.walker_transform()
+    poses = []
+    for p in sim.poses:
+        w = p.points @ rot.T + off
+        for f in range(2):
+            if w[f, HEEL, 2] > spec.toe_point_height + 0.01 and w[f, TOE, 2] < spec.toe_point_height + 0.003:
+                out = np.sign(w[f, HEEL, 1] - w[1 - f, HEEL, 1])
+                w[f, :3, 1] += 0.03 * out  # hip, knee, ankle: the leg above the rolled foot
+        poses.append(replace(p, points=(w - off) @ rot))
+    flat = evaluate_gait(sim.steps, sim.events, run_analyzer(poses, sim.floor), fps=spec.fps)
+    assert flat["precision"] == 1.0 and flat["recall"] == 1.0
+    at_strike = evaluate_gait(sim.steps, sim.events, run_analyzer(poses, sim.floor, config=GaitConfig(width_flat_trailing_s=0.0)),
+                              fps=spec.fps)
+    assert flat["step_width_mae"] < 0.003 < 0.015 < at_strike["step_width_mae"], (flat["step_width_mae"], at_strike["step_width_mae"])
 
 
 def _hide_trailing_foot(spec: GaitSimSpec, *, error_m: float, lateral_m: float = 0.0

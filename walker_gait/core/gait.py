@@ -37,7 +37,8 @@ Method in short (all geometry in the floor plane of the *walker* frame, see ``ty
    (:meth:`GaitAnalyzer._planted_point`), and so it does, seen or not, where B's strike is timed so late that A's
    toe is already off the floor.  The component across the line of
    progression (step width) comes from the ankles instead (``ankle + heel-ankle offset`` of each
-   foot, see :meth:`GaitAnalyzer._ankle_vector`): far less sensitive to foot yaw errors.  Step vectors are chained into a
+   foot, see :meth:`GaitAnalyzer._ankle_vector`): far less sensitive to foot yaw errors; the reported width takes
+   the trailing foot's from its last flat frames in view (``width_flat_trailing_s``).  Step vectors are chained into a
    footprint map; the line of progression is the mean direction of the last
    ``progression_strides`` strides (fallback: walker -x, or the odometry heading).
 """
@@ -80,6 +81,7 @@ _H, _T = 0, 1  # heel / toe index in the internal (2 feet, 2 points) arrays
 _HINGE_POWERS = (1.0, 1.5, 2.0, 3.0)
 _TOE_DOWN_S = 0.15  # s: a landing foot's toe is down this soon after its heel strike (foot flat: ~0.06 s in walking)
 _MAX_DRIFT_SPEED = 2.0  # m/s: faster than a walker user walks; a planted foot's drift beyond it is a bad fit
+_FLAT_HEEL_SPAN_S = 0.3  # s: the trailing foot's last flat frames averaged for its heel across the line of progression
 
 
 class GaitInputError(ValueError):
@@ -211,13 +213,24 @@ class GaitConfig:
     a foot the tracker did not see land was placed by its motion model, and such steps were off by 13-52 cm
     on average on the sweeps (0 = off)."""
     heel_rise_travel: bool = True
-    """Take back, from the trailing foot's ankle in the step width, its travel along the foot since the foot was
+    """Take back, from the trailing foot's ankle at the strike (the footprint chain's width, and the reported one
+    where ``width_flat_trailing_s`` finds no flat frame), its travel along the foot since the foot was
     flat.  A trailing foot in its heel rise pivots about its toe, so its ankle travels forward along the foot and,
     with toe-out, sideways: on exact synthetic poses the width came out 0.9 cm wide (normal walking: 1.0).  The
     travel is the change of the ankle's offset from the planted toe, along the foot's flat heel-to-toe
     direction (session mean, so a tracked foot's wobbling yaw averages out).  On the tracked poses of ``make
     sweep`` (tracker seeds 0 / 1; off -> on): step width MAE 2.28 / 2.41 -> 2.25 / 2.31 cm (set C), 2.30 / 2.50 ->
     2.17 / 2.41 (A), 2.42 / 2.31 -> 2.29 / 2.30 (B); exact poses of set C's sessions 1.32 -> 0.94 cm."""
+    width_flat_trailing_s: float = 0.8
+    """Across the line of progression, the reported step width takes the trailing foot's heel from its own last flat
+    frames (heel and toe on the floor, the foot in view) within this many seconds before the strike: the mean of
+    ``ankle + heel-ankle offset`` over those of the last 0.3 s, the ankle as the tracker saw it standing rather than
+    at the strike, when the foot is in its heel rise (the tracker rolls it) or hidden behind the landing leg (0 =
+    off, or no such frames: the ankle at the strike, see ``heel_rise_travel``).  The footprint chain and the line
+    of progression keep the ankle at the strike (with the flat heel there, a wrong lateral place turned the line
+    and lengthened later steps).  On the sweeps (tracker seeds 0 / 1): step width MAE 2.29 / 1.91 -> 2.08 / 1.74 cm
+    (set C), 1.86 / 1.96 -> 1.60 / 1.71 (A); the landing foot's own flat frames after the strike did worse (DEVELOPERS.md,
+    thirty-third session).  Assumes a walker that does not turn in that time (a walkway's straight pass)."""
     progression_strides: int = 4
     """Number of recent strides averaged for the line of progression."""
     max_step_time_s: float = 2.5
@@ -289,7 +302,8 @@ class GaitConfig:
             if not (math.isfinite(value) and value > 0):
                 raise GaitInputError(f"GaitConfig.{name} must be positive and finite, got {value}")
         for name, value in (("planted_fit_sigma_s", self.planted_fit_sigma_s), ("hs_height_weight", self.hs_height_weight),
-                            ("landing_toe_fit_s", self.landing_toe_fit_s)):
+                            ("landing_toe_fit_s", self.landing_toe_fit_s),
+                            ("width_flat_trailing_s", self.width_flat_trailing_s)):
             if not (math.isfinite(value) and value >= 0):
                 raise GaitInputError(f"GaitConfig.{name} must be >= 0 and finite, got {value}")
         if not self.summary_max_step_time_ratio > 1:
@@ -1344,6 +1358,21 @@ class GaitAnalyzer:
         oa = self._oa_sum / self._oa_n[:, None]
         return v.mean(axis=0) + oa[a] - oa[b]
 
+    def _flat_heel(self, f: int, t_lo: float, t_hi: float) -> FloatArray | None:
+        """Foot ``f``'s heel (xy, walker frame) as ``ankle + heel-ankle offset`` averaged over its flat frames (heel and
+        toe on the floor) in ``[t_lo, t_hi]`` in which the tracker saw it (visibility >= 0.5: a hidden foot is where
+        its motion model put it) that lie within 0.3 s of the last of them; None with fewer than three such frames
+        or no offset yet."""
+        if self._oa_n[f] == 0:
+            return None
+        r = self._valid_range(t_lo, t_hi)
+        r = r[(self._weight[r, f, _T] >= 0.5) & (self._weight[r, f, _H] >= 0.5) & (self._vis[r, f] >= 0.5)
+              & np.all(np.isfinite(self._ankle[r, f, :2]), axis=1)]
+        if r.size < 3:
+            return None
+        r = r[self._t[r] >= self._t[r[-1]] - _FLAT_HEEL_SPAN_S]
+        return self._ankle[r, f, :2].mean(axis=0) + self._oa_sum[f] / self._oa_n[f]
+
     def _walker_yaw(self, t: float) -> float:
         if not self._odo:
             return 0.0
@@ -1371,6 +1400,7 @@ class GaitAnalyzer:
             fallback = True
         o_used = False  # whether the trailing foot's flat heel-toe offset entered the step vector (heel formulas)
         lateral = None  # the step vector's component across the line of progression, from the ankles
+        width_vec = None  # heel to heel for the reported width: the trailing heel from its last flat frames
         # b is the trailing foot, often hidden behind the leading leg by now: its toe comes from the frames
         # in which it was seen (see _planted_point)
         hs_b = [t for t in self._feet[b].hs if t < ps.t_hs]
@@ -1413,6 +1443,13 @@ class GaitAnalyzer:
                     travel = ((ankle_b - toe_b) - toe_to_ankle) @ axis
                     ankle_b = ankle_b - travel[:, None] * axis[None, :]
             lateral = self._ankle_vector(idx, a, b, ankle_b)
+            if lateral is not None and c.width_flat_trailing_s > 0:
+                heel_b = self._flat_heel(b, ps.t_hs - c.width_flat_trailing_s, ps.t_hs)
+                if heel_b is not None:
+                    ankle_a = self._ankle[idx, a, :2]
+                    ankle_a = ankle_a[np.all(np.isfinite(ankle_a), axis=1)]
+                    if ankle_a.shape[0]:
+                        width_vec = ankle_a.mean(axis=0) - heel_b + self._oa_sum[a] / self._oa_n[a]
         else:  # no frame inside the double support (very short one): nearest frame
             near = self._valid_range(ps.t_hs - 0.1, ps.t_hs + 0.1)
             if near.size:
@@ -1461,6 +1498,10 @@ class GaitAnalyzer:
             u = _rot2(self._walker_yaw(ps.t_hs)) @ u
         step_length = float(d @ u)
         step_width = float(abs(d[0] * u[1] - d[1] * u[0]))
+        if width_vec is not None and np.all(np.isfinite(d)):
+            if self._odo:
+                width_vec = _rot2(self._walker_yaw(ps.t_hs)) @ width_vec
+            step_width = float(abs(width_vec[0] * u[1] - width_vec[1] * u[0]))
         stride_length = float(stride_vec @ u) if stride_vec is not None else float("nan")
         # temporal parameters from the event history
         t1 = ps.t_hs
