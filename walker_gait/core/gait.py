@@ -1355,8 +1355,11 @@ class GaitAnalyzer:
         v = v[np.all(np.isfinite(v), axis=1)]
         if v.shape[0] == 0:
             return None
-        oa = self._oa_sum / self._oa_n[:, None]
-        return v.mean(axis=0) + oa[a] - oa[b]
+        return v.mean(axis=0) + self._heel_ankle_offset(a) - self._heel_ankle_offset(b)
+
+    def _heel_ankle_offset(self, f: int) -> FloatArray:
+        """Foot ``f``'s mean heel-minus-ankle offset (xy, walker frame) over its flat frames; needs ``_oa_n[f] > 0``."""
+        return self._oa_sum[f] / self._oa_n[f]
 
     def _flat_heel(self, f: int, t_lo: float, t_hi: float) -> FloatArray | None:
         """Foot ``f``'s heel (xy, walker frame) as ``ankle + heel-ankle offset`` averaged over its flat frames (heel and
@@ -1371,7 +1374,7 @@ class GaitAnalyzer:
         if r.size < 3:
             return None
         r = r[self._t[r] >= self._t[r[-1]] - _FLAT_HEEL_SPAN_S]
-        return self._ankle[r, f, :2].mean(axis=0) + self._oa_sum[f] / self._oa_n[f]
+        return self._ankle[r, f, :2].mean(axis=0) + self._heel_ankle_offset(f)
 
     def _walker_yaw(self, t: float) -> float:
         if not self._odo:
@@ -1436,7 +1439,7 @@ class GaitAnalyzer:
             if c.heel_rise_travel and self._o_n[b] > 0 and self._oa_n[b] > 0:
                 # the heel rising about the planted toe carries the ankle forward along the foot: take that back
                 o_b = self._o_sum[b] / self._o_n[b]  # flat heel - toe
-                toe_to_ankle = o_b - self._oa_sum[b] / self._oa_n[b]  # flat ankle - toe
+                toe_to_ankle = o_b - self._heel_ankle_offset(b)  # flat ankle - toe
                 nrm = float(np.hypot(*o_b))
                 if nrm > 1e-6:
                     axis = -o_b / nrm  # flat heel -> toe
@@ -1449,7 +1452,7 @@ class GaitAnalyzer:
                     ankle_a = self._ankle[idx, a, :2]
                     ankle_a = ankle_a[np.all(np.isfinite(ankle_a), axis=1)]
                     if ankle_a.shape[0]:
-                        width_vec = ankle_a.mean(axis=0) - heel_b + self._oa_sum[a] / self._oa_n[a]
+                        width_vec = ankle_a.mean(axis=0) + self._heel_ankle_offset(a) - heel_b
         else:  # no frame inside the double support (very short one): nearest frame
             near = self._valid_range(ps.t_hs - 0.1, ps.t_hs + 0.1)
             if near.size:
