@@ -228,9 +228,11 @@ class GaitConfig:
     at the strike, when the foot is in its heel rise (the tracker rolls it) or hidden behind the landing leg (0 =
     off, or no such frames: the ankle at the strike, see ``heel_rise_travel``).  The footprint chain and the line
     of progression keep the ankle at the strike (with the flat heel there, a wrong lateral place turned the line
-    and lengthened later steps).  On the sweeps (tracker seeds 0 / 1): step width MAE 2.29 / 1.91 -> 2.08 / 1.74 cm
-    (set C), 1.86 / 1.96 -> 1.60 / 1.71 (A); the landing foot's own flat frames after the strike did worse (DEVELOPERS.md,
-    thirty-third session).  Assumes a walker that does not turn in that time (a walkway's straight pass)."""
+    and lengthened later steps).  A strike with no double-support frame takes the landing foot's ankle at its nearest
+    frame against the same trailing heel.  On the sweeps (tracker seeds 0 / 1): step width MAE 2.29 / 1.91 -> 1.99 /
+    1.66 cm (set C), 1.86 / 1.96 -> 1.50 / 1.69 (A), 2.07 / 2.08 -> 1.86 / 1.78 (B); the landing foot's own flat frames
+    after the strike did worse (DEVELOPERS.md, thirty-third session).  Assumes a walker that does not turn in that
+    time (a walkway's straight pass)."""
     progression_strides: int = 4
     """Number of recent strides averaged for the line of progression."""
     max_step_time_s: float = 2.5
@@ -1467,6 +1469,11 @@ class GaitAnalyzer:
                     d_toe = land_toe.at(float(self._t[kn])) - toe_b
                     u_p = self._progression_dir()
                     d = d + float((d_toe - d) @ u_p) * u_p
+                if c.width_flat_trailing_s > 0 and self._oa_n[a] > 0 and np.all(np.isfinite(self._ankle[kn, a, :2])):
+                    # the reported width heel to heel as with a double support: b's from its last flat frames
+                    heel_b = self._flat_heel(b, ps.t_hs - c.width_flat_trailing_s, ps.t_hs)
+                    if heel_b is not None:
+                        width_vec = self._ankle[kn, a, :2] + self._heel_ankle_offset(a) - heel_b
             else:  # tracking gap around the heel strike
                 d = np.full(2, np.nan)
         if lateral is not None and np.all(np.isfinite(d)):
