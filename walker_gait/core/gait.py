@@ -1405,7 +1405,7 @@ class GaitAnalyzer:
             fallback = True
         o_used = False  # whether the trailing foot's flat heel-toe offset entered the step vector (heel formulas)
         lateral = None  # the step vector's component across the line of progression, from the ankles
-        width_vec = None  # heel to heel for the reported width: the trailing heel from its last flat frames
+        width_ankle_a = None  # the landing ankle for the reported width, against the trailing heel's last flat frames
         # b is the trailing foot, often hidden behind the leading leg by now: its toe comes from the frames
         # in which it was seen (see _planted_point)
         hs_b = [t for t in self._feet[b].hs if t < ps.t_hs]
@@ -1448,13 +1448,11 @@ class GaitAnalyzer:
                     travel = ((ankle_b - toe_b) - toe_to_ankle) @ axis
                     ankle_b = ankle_b - travel[:, None] * axis[None, :]
             lateral = self._ankle_vector(idx, a, b, ankle_b)
-            if lateral is not None and c.width_flat_trailing_s > 0:
-                heel_b = self._flat_heel(b, ps.t_hs - c.width_flat_trailing_s, ps.t_hs)
-                if heel_b is not None:
-                    ankle_a = self._ankle[idx, a, :2]
-                    ankle_a = ankle_a[np.all(np.isfinite(ankle_a), axis=1)]
-                    if ankle_a.shape[0]:
-                        width_vec = ankle_a.mean(axis=0) + self._heel_ankle_offset(a) - heel_b
+            if lateral is not None:
+                ankle_a = self._ankle[idx, a, :2]
+                ankle_a = ankle_a[np.all(np.isfinite(ankle_a), axis=1)]
+                if ankle_a.shape[0]:
+                    width_ankle_a = ankle_a.mean(axis=0)
         else:  # no frame inside the double support (very short one): nearest frame
             near = self._valid_range(ps.t_hs - 0.1, ps.t_hs + 0.1)
             if near.size:
@@ -1469,13 +1467,15 @@ class GaitAnalyzer:
                     d_toe = land_toe.at(float(self._t[kn])) - toe_b
                     u_p = self._progression_dir()
                     d = d + float((d_toe - d) @ u_p) * u_p
-                if c.width_flat_trailing_s > 0 and self._oa_n[a] > 0 and np.all(np.isfinite(self._ankle[kn, a, :2])):
-                    # the reported width heel to heel as with a double support: b's from its last flat frames
-                    heel_b = self._flat_heel(b, ps.t_hs - c.width_flat_trailing_s, ps.t_hs)
-                    if heel_b is not None:
-                        width_vec = self._ankle[kn, a, :2] + self._heel_ankle_offset(a) - heel_b
+                if np.all(np.isfinite(self._ankle[kn, a, :2])):  # the reported width as with a double support
+                    width_ankle_a = self._ankle[kn, a, :2]
             else:  # tracking gap around the heel strike
                 d = np.full(2, np.nan)
+        width_vec = None  # heel to heel for the reported width: the trailing heel from its last flat frames
+        if width_ankle_a is not None and c.width_flat_trailing_s > 0 and self._oa_n[a] > 0:
+            heel_b = self._flat_heel(b, ps.t_hs - c.width_flat_trailing_s, ps.t_hs)
+            if heel_b is not None:
+                width_vec = width_ankle_a + self._heel_ankle_offset(a) - heel_b
         if lateral is not None and np.all(np.isfinite(d)):
             # across the line of progression, heel positions are taken from the ankles (see _ankle_vector)
             n = self._progression_dir()
