@@ -96,6 +96,23 @@ def test_gt_json_contents(session: Session, tmp_path: Path) -> None:
     assert np.array(gt["frames"]["walker_pose"]).shape == (len(s), 3)
     vis = np.array(gt["frames"]["visible_pixels"])
     assert vis.shape == (len(s), 2) and vis.min() >= 0 and vis.max() > 0
+    assert gt["frames"]["walker_tilt_rad"] is None and gt["frames"]["floor_per_frame"] is None  # a rigid walker
+
+
+def test_cli_writes_a_rocking_walkers_floor_per_frame(tmp_path: Path) -> None:
+    out = tmp_path / "rock.mcap"
+    assert main(["--duration", "2.0", "--scale", "0.1", "--out", str(out), "--seed", "2", "--vibration", "1.5", "--quiet"]) == 0
+    gt = json.loads(gt_path_for(out).read_text())
+    assert gt["spec"]["vibration_deg"] == [1.5, 1.5]
+    s = generate_session(SessionSpec.preset("normal", duration=2.0, scale=0.1, vibration_deg=(1.5, 1.5)),
+                         rng=np.random.default_rng(2))
+    floors = gt["frames"]["floor_per_frame"]
+    assert len(floors) == len(s) == len(gt["frames"]["walker_tilt_rad"])
+    for i in (0, len(s) // 2, len(s) - 1):
+        np.testing.assert_allclose(floors[i]["normal"], s.floor_at(i).normal, atol=1e-8)
+        assert floors[i]["offset"] == pytest.approx(s.floor_at(i).offset)
+    assert np.ptp(np.array([f["normal"] for f in floors]), axis=0).max() > 0.005  # it rocks
+    assert main(["--out", str(tmp_path / "bad.mcap"), "--vibration", "-1", "--quiet"]) == 2
 
 
 def test_existing_output_not_overwritten(session: Session, tmp_path: Path) -> None:

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -164,3 +166,50 @@ def test_scenario_frames(scenario: str) -> None:
     if scenario == "absent_start":
         fr = s.frame(0)
         assert not np.any(fr.side >= 0)  # nobody in view at the start
+
+
+@pytest.fixture(scope="module")
+def rocking() -> tuple[Session, Session]:
+    """The same session drawn rigid and on a walker that rocks 1 deg RMS (pitch and roll)."""
+    spec = SessionSpec.preset("normal", duration=3.0, scale=0.5, stand_start=(0.6, 0.6))
+    rigid = generate_session(spec, rng=np.random.default_rng(8))
+    rocking = generate_session(dataclasses.replace(spec, vibration_deg=(1.0, 1.0)), rng=np.random.default_rng(8))
+    return rigid, rocking
+
+
+def test_a_rocking_walker_moves_the_camera_not_the_user(rocking: tuple[Session, Session]) -> None:
+    rigid, rock = rocking
+    assert rigid.walker_tilt is None and rock.walker_tilt is not None
+    # the user, the walker's path and the footfalls are the same draws
+    np.testing.assert_array_equal(rigid.body.leg_points(), rock.body.leg_points())
+    np.testing.assert_array_equal(rigid.walker_pose, rock.walker_pose)
+    assert [(s.stamp, s.step_length, s.step_width) for s in rigid.steps] == [(s.stamp, s.step_length, s.step_width) for s in rock.steps]
+    # ... seen from a camera that rocks: still while the walker stands, about the asked RMS once it rolls
+    tilt = np.degrees(rock.walker_tilt)
+    speed = np.abs(np.gradient(rock.walker_pose[:, 0], rock.stamps))
+    assert np.abs(tilt[speed < 1e-6]).max() < 0.05
+    rms = np.sqrt(np.mean(tilt[speed > 0.3] ** 2, axis=0))
+    assert np.all((rms > 0.5) & (rms < 1.6)), rms
+    moved = np.linalg.norm(rock.leg_points - rigid.leg_points, axis=-1)[speed > 0.3]
+    assert np.median(moved) > 0.003
+    # the camera frame points are the world points seen from the rocking camera
+    i = int(np.argmax(np.abs(tilt[:, 0])))
+    seen = rock.world_to_camera(rock.body.leg_points()[i][None], rock.stamps[i : i + 1])[0]
+    np.testing.assert_allclose(seen, rock.leg_points[i], atol=1e-9)
+
+
+def test_a_rocking_walkers_floor_is_rendered_where_floor_at_puts_it(rocking: tuple[Session, Session]) -> None:
+    rigid, rock = rocking
+    intr = rock.intrinsics
+    i = int(np.argmax(np.abs(np.degrees(rock.walker_tilt)).max(axis=1)))
+    fr = rock.frame(i)
+    ok = fr.material == B.MAT_FLOOR
+    v, u = np.nonzero(ok)
+    p = intr.backproject(u, v, fr.ideal_depth[ok].astype(np.float64))
+    assert np.max(np.abs(rock.floor_at(i).height(p))) < 1e-4
+    assert np.max(np.abs(rock.floor.height(p))) > 0.01  # the nominal floor is not it
+    # the walker's own parts stay put in the image; a rigid session's floor_at is its floor
+    parts_rigid = rigid.frame(i).material == B.MAT_WALKER
+    parts_rock = fr.material == B.MAT_WALKER
+    assert np.mean(parts_rigid == parts_rock) > 0.99
+    assert rigid.floor_at(i) is rigid.floor

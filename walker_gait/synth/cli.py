@@ -30,6 +30,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--no-rgb", action="store_true", help="omit the extra rgb8 topic")
     p.add_argument("--no-noise", action="store_true", help="ideal depth (no sensor noise/dropouts)")
+    p.add_argument("--vibration", type=float, default=0.0, metavar="DEG",
+                   help="RMS pitch and roll (deg) of the walker rocking on its wheels while it rolls (default 0: rigid)")
     p.add_argument("--contact-sheet", type=Path, default=None, help="also write a PNG contact sheet")
     p.add_argument("--overwrite", action="store_true")
     p.add_argument("--quiet", action="store_true")
@@ -47,6 +49,10 @@ def main(argv: Sequence[str] | None = None) -> int:
             overrides["sensor_noise"] = False
         if args.no_rgb:
             overrides["rgb_topic"] = False
+        if args.vibration < 0:
+            raise ValueError(f"--vibration must be >= 0, got {args.vibration}")
+        if args.vibration > 0:
+            overrides["vibration_deg"] = (args.vibration, args.vibration)
         spec = SessionSpec.preset(args.scenario, **overrides)
     except ValueError as err:
         print(f"error: {err}", file=sys.stderr)

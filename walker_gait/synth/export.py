@@ -236,7 +236,7 @@ def ground_truth_dict(
     p = session.params
     k = session.intrinsics
     fl = session.floor
-    r, _ = session.camera_pose_at(np.array([0.0]))
+    r = session.camera_pose_at(np.array([0.0]))[0][0]
     events = []
     for e in session.events:
         pc = session.world_to_camera(e.position_world[None, :], np.array([e.stamp]))[0]
@@ -310,6 +310,11 @@ def ground_truth_dict(
             "joint_angles": _arr(session.body.angles),
             "walker_pose": _arr(session.walker_pose),
             "camera_position_world": _arr(session.world_from_camera[:, :3, 3]),
+            # a walker rocking on its wheels (spec.vibration_deg): its pitch and roll, and the floor in the camera
+            # frame, per frame ("floor" above is the still walker's); None for a rigid walker
+            "walker_tilt_rad": None if session.walker_tilt is None else _arr(session.walker_tilt, 9),
+            "floor_per_frame": None if session.walker_tilt is None else [
+                {"normal": _arr(f.normal, 9), "offset": f.offset} for f in (session.floor_at(i) for i in range(len(session)))],
             "visible_pixels": None if visible_pixels is None else np.asarray(visible_pixels).astype(int).tolist(),
         },
         "events": events,

@@ -85,6 +85,7 @@ class SessionSpec:
     principal_jitter_px: float = 6.0  # cx, cy offsets from the centre (full-size px)
     user_distance: Range = (0.78, 0.95)
     walker_lag: Range = (0.25, 0.45)  # s, time constant of the walker following the user
+    vibration_deg: Range = (0.0, 0.0)  # RMS tilt (pitch and roll, each) of the rolling walker and its camera, see _walker_tilt
     # gait
     cadence: Range = (95.0, 110.0)  # steps / min
     step_length: Range = (0.45, 0.58)
@@ -232,6 +233,14 @@ class ResolvedParams:
     start_y: float
 
 
+WHEEL_HALF_TRACK = 0.28
+"""m: the walker's wheels this far either side of its centre line (when the scene has no walker parts)."""
+REAR_WHEELS = 0.56
+"""m: its rear wheels this far towards the user from the camera (likewise)."""
+FRONT_WHEELS = 0.12
+"""m: its front wheels this far ahead of the camera (out of view; the walker rocks forward onto them)."""
+
+
 @dataclass
 class SceneStatic:
     """Per-session static scene: floor + walker parts in the camera frame, clutter in the world."""
@@ -241,6 +250,9 @@ class SceneStatic:
     static_mat: NDArray[np.int8]
     clutter: B.Mesh  # world frame boxes
     walls_y: tuple[float, ...]  # world Y of hallway walls
+    parts_depth: FloatArray | None = None  # (H, W) walker parts alone (inf = none): a vibrating walker's floor moves
+    parts_cos: FloatArray | None = None
+    wheels: tuple[float, float] = (WHEEL_HALF_TRACK, REAR_WHEELS)  # m: half track, rear wheels behind the camera
 
 
 @dataclass(kw_only=True)
@@ -275,6 +287,9 @@ class Session:
     frame_seeds: NDArray[np.uint64]
     _walker_t: FloatArray = field(repr=False)
     _walker_x: FloatArray = field(repr=False)
+    walker_tilt: FloatArray | None = None  # (T, 2) pitch, roll (rad) of a vibrating walker at the frames; None: rigid on the floor
+    _tilt_t: FloatArray | None = field(default=None, repr=False)  # fine time grid of the tilt (camera poses between frames)
+    _tilt: FloatArray | None = field(default=None, repr=False)  # (N, 2) tilt on that grid
 
     # ------------------------------------------------------------------ basics
     @property
@@ -303,12 +318,16 @@ class Session:
         }
 
     def camera_pose_at(self, t: FloatArray) -> tuple[FloatArray, FloatArray]:
-        """World-from-camera rotation (3,3) (constant) and camera centres (N,3) at times ``t``."""
+        """World-from-camera rotations (N,3,3) and camera centres (N,3) at times ``t`` (the mount's
+        rotation throughout unless the walker vibrates)."""
         t = np.atleast_1d(np.asarray(t, float))
         xw = np.interp(t, self._walker_t, self._walker_x)
         m = self.params.mount
-        c = np.stack([xw, np.full_like(xw, m.lateral), np.full_like(xw, m.height)], axis=-1)
-        return m.rotation(), c
+        if self._tilt is None or self._tilt_t is None:
+            c = np.stack([xw, np.full_like(xw, m.lateral), np.full_like(xw, m.height)], axis=-1)
+            return np.broadcast_to(m.rotation(), (t.size, 3, 3)).copy(), c
+        tilt = np.stack([np.interp(t, self._tilt_t, self._tilt[:, k]) for k in (0, 1)], axis=-1)
+        return _tilted_camera(m.rotation(), m, xw, tilt, wheels=self.scene.wheels)
 
     def world_to_camera(self, points: FloatArray, t: FloatArray) -> FloatArray:
         """Transform world points ``(N, ..., 3)`` observed at times ``t`` (N,) into the camera frame."""
@@ -316,7 +335,15 @@ class Session:
         p = np.asarray(points, float)
         shape = p.shape
         p = p.reshape(len(c), -1, 3)
-        return ((p - c[:, None, :]) @ r).reshape(shape)
+        return np.einsum("nmj,njk->nmk", p - c[:, None, :], r).reshape(shape)
+
+    def floor_at(self, i: int) -> FloorPlane:
+        """The true floor in the camera frame at frame ``i`` (:attr:`floor` unless the walker vibrates)."""
+        if self.walker_tilt is None:
+            return self.floor
+        r = self.world_from_camera[i, :3, :3]
+        return FloorPlane(normal=r.T @ np.array([0.0, 0.0, 1.0]), offset=float(self.world_from_camera[i, 2, 3]),
+                          rms=0.0, inlier_ratio=1.0, valid=True)
 
     # ------------------------------------------------------------------ rendering
     def frame(self, i: int) -> RenderedFrame:
@@ -384,11 +411,19 @@ class Session:
                 cos[ok] = np.abs(nr[ok]) / ray_norm[ok]
                 mat[ok] = B.MAT_CLUTTER
                 side_img[ok] = -1
-        # floor + walker parts (static in the camera frame)
-        closer = self.scene.static_depth < depth
-        depth[closer] = self.scene.static_depth[closer]
-        cos[closer] = self.scene.static_cos[closer]
-        mat[closer] = self.scene.static_mat[closer]
+        # floor + walker parts (static in the camera frame; a vibrating walker's floor moves in it)
+        static_z, static_cos, static_mat = self.scene.static_depth, self.scene.static_cos, self.scene.static_mat
+        if self.walker_tilt is not None and self.scene.parts_depth is not None and self.scene.parts_cos is not None:
+            fl = self.floor_at(i)
+            fz, fcos = floor_depth(intr, fl.normal, fl.offset)
+            part = self.scene.parts_depth < fz
+            static_z = np.where(part, self.scene.parts_depth, fz)
+            static_cos = np.where(part, self.scene.parts_cos, fcos)
+            static_mat = np.where(part, B.MAT_WALKER, np.where(np.isfinite(fz), B.MAT_FLOOR, B.MAT_NONE)).astype(np.int8)
+        closer = static_z < depth
+        depth[closer] = static_z[closer]
+        cos[closer] = static_cos[closer]
+        mat[closer] = static_mat[closer]
         side_img[closer] = -1
         rng = np.random.default_rng(int(self.frame_seeds[i]))
         model = p.sensor
@@ -575,13 +610,16 @@ def _simulate_walker(
     return t, x
 
 
-def _walker_scene(intr: CameraIntrinsics, mount: CameraMount, *, parts: bool, rng: np.random.Generator) -> tuple[FloatArray, FloatArray, NDArray[np.int8]]:
-    """Floor + walker parts (rear wheels, rear posts, low side bars) in the camera frame."""
+def _walker_scene(
+    intr: CameraIntrinsics, mount: CameraMount, *, parts: bool, rng: np.random.Generator
+) -> tuple[FloatArray, FloatArray, NDArray[np.int8], FloatArray, FloatArray, tuple[float, float]]:
+    """Floor + walker parts (rear wheels, rear posts, low side bars) in the camera frame, the parts alone
+    (depth, cosine; inf where none), and the wheels' half track and rear distance (m)."""
     floor = mount.floor_plane()
     z, cos = floor_depth(intr, floor.normal, floor.offset)
     mat = np.where(np.isfinite(z), B.MAT_FLOOR, B.MAT_NONE).astype(np.int8)
     if not parts:
-        return z, cos, mat
+        return z, cos, mat, np.full_like(z, np.inf), np.zeros_like(cos), (WHEEL_HALF_TRACK, REAR_WHEELS)
     half_w = _u(rng, (0.26, 0.31))
     rear = _u(rng, (0.50, 0.62))  # wheels this far towards the user from the camera (m)
     wheel_r = _u(rng, (0.08, 0.10))
@@ -598,7 +636,8 @@ def _walker_scene(intr: CameraIntrinsics, mount: CameraMount, *, parts: bool, rn
     v_cam = (mesh.vertices - c) @ r
     dw, _, cw = rasterize(v_cam, mesh.faces, intr)
     closer = dw < z
-    return np.where(closer, dw, z), np.where(closer, cw, cos), np.where(closer, B.MAT_WALKER, mat).astype(np.int8)
+    return (np.where(closer, dw, z), np.where(closer, cw, cos), np.where(closer, B.MAT_WALKER, mat).astype(np.int8), dw, cw,
+            (half_w, rear))
 
 
 def _clutter(spec: SessionSpec, p: ResolvedParams, x_range: tuple[float, float], rng: np.random.Generator) -> tuple[B.Mesh, tuple[float, ...]]:
@@ -637,6 +676,64 @@ def _hem_centres(body: BodyState, dims: BodyDims, shape: B.BodyShape, dt: float)
     return out
 
 
+def _walker_tilt(t: FloatArray, x: FloatArray, *, rms: float, step_hz: float, rng: np.random.Generator) -> FloatArray:
+    """``(N, 2)`` pitch and roll (rad) of a rolling walker at times ``t`` (walker position ``x``).
+
+    A walker rocks on its wheels as it rolls: at the step frequency, as the user leans on the handles
+    at each step, and faster (4-12 Hz) over the floor's joints and bumps.  Each axis is half step-rate
+    sway (with a slowly wandering phase) and half a sum of six bump sinusoids, normalised to unit
+    RMS, scaled by ``rms`` times the walker's speed over its median speed while moving (capped at 1.5x): the
+    tilt's RMS is about ``rms`` while the user walks, and a walker standing still does not rock.
+    """
+    dt = float(np.median(np.diff(t))) if t.size > 1 else 1.0
+    v = np.abs(np.gradient(x, dt)) if t.size > 1 else np.zeros_like(t)
+    k = max(1, int(round(0.3 / dt)))  # 0.3 s running mean: the rocking follows the speed smoothly
+    v = np.convolve(v, np.ones(k) / k, mode="same")
+    moving = v > 0.1
+    v_walk = float(np.median(v[moving])) if moving.any() else 1.0
+    gain = rms * np.clip(v / v_walk, 0.0, 1.5)
+    out = np.empty((t.size, 2))
+    for axis in range(2):
+        wander = np.cumsum(rng.normal(0.0, 0.3 * np.sqrt(dt), t.size))  # rad of phase, a random walk
+        sway = np.sin(2 * np.pi * step_hz * t + rng.uniform(0, 2 * np.pi) + wander)
+        f = rng.uniform(4.0, 12.0, 6)
+        ph = rng.uniform(0, 2 * np.pi, 6)
+        bumps = np.sin(2 * np.pi * f[None, :] * t[:, None] + ph[None, :]).sum(axis=1)
+        sig = sway + bumps / np.sqrt(6.0)  # variance 1/2 + 1/2: unit RMS
+        out[:, axis] = gain * sig
+    return out
+
+
+def _tilt_rotations(tilt: FloatArray) -> FloatArray:
+    """``(N, 3, 3)`` world-frame rotations of a walker pitched by ``tilt[:, 0]`` (about world Y) and rolled by
+    ``tilt[:, 1]`` (about world X)."""
+    cp, sp = np.cos(tilt[:, 0]), np.sin(tilt[:, 0])
+    cr, sr = np.cos(tilt[:, 1]), np.sin(tilt[:, 1])
+    n = tilt.shape[0]
+    ry = np.zeros((n, 3, 3))
+    ry[:, 0, 0], ry[:, 0, 2], ry[:, 1, 1], ry[:, 2, 0], ry[:, 2, 2] = cp, sp, 1.0, -sp, cp
+    rx = np.zeros((n, 3, 3))
+    rx[:, 0, 0], rx[:, 1, 1], rx[:, 1, 2], rx[:, 2, 1], rx[:, 2, 2] = 1.0, cr, -sr, sr, cr
+    return rx @ ry
+
+
+def _tilted_camera(
+    r: FloatArray, mount: CameraMount, xw: FloatArray, tilt: FloatArray, *, wheels: tuple[float, float]
+) -> tuple[FloatArray, FloatArray]:
+    """World-from-camera rotations ``(N, 3, 3)`` and centres ``(N, 3)`` of the camera on a walker at ``xw`` tilted
+    by ``tilt``.  The walker and its camera rock together about the wheels they tip onto: forward onto the front
+    wheels (:data:`FRONT_WHEELS` ahead), back onto the rear ones (``wheels[1]`` behind), sideways onto one side's
+    (``wheels[0]`` out), all on the floor, so the camera moves as well as turning."""
+    j = _tilt_rotations(tilt)
+    half_track, rear = wheels
+    # pitch > 0 lowers +X (forward): the walker tips onto its front wheels; roll > 0 raises +Y: onto its -Y wheels
+    px = np.where(tilt[:, 0] > 0, FRONT_WHEELS, -rear)
+    py = np.where(tilt[:, 1] > 0, -half_track, half_track)
+    arm = np.stack([-px, mount.lateral - py, np.full_like(px, mount.height)], axis=-1)  # camera from the pivot
+    pivot = np.stack([xw + px, py, np.zeros_like(xw)], axis=-1)
+    return j @ r, pivot + np.einsum("nij,nj->ni", j, arm)
+
+
 def generate_session(spec: SessionSpec, *, rng: np.random.Generator) -> Session:
     """Generate a session (trajectories, ground truth; frames render lazily via :meth:`Session.frame`)."""
     p = _resolve(spec, rng)
@@ -662,11 +759,21 @@ def generate_session(spec: SessionSpec, *, rng: np.random.Generator) -> Session:
     plans = [f.arrays() for f in feet]
     events = gait_events(plans, foot_length=p.dims.foot_length, t_min=0.0, t_max=t_end)
     steps = gait_steps(plans, t_min=0.0, t_max=t_end)
-    static_z, static_cos, static_mat = _walker_scene(p.intrinsics, p.mount, parts=spec.walker_parts, rng=rng)
+    static_z, static_cos, static_mat, parts_z, parts_cos, wheels = _walker_scene(p.intrinsics, p.mount, parts=spec.walker_parts, rng=rng)
     clutter, walls = _clutter(spec, p, (float(xw.min()), float(xw.max())), rng)
-    scene = SceneStatic(static_depth=static_z, static_cos=static_cos, static_mat=static_mat, clutter=clutter, walls_y=walls)
+    scene = SceneStatic(static_depth=static_z, static_cos=static_cos, static_mat=static_mat, clutter=clutter, walls_y=walls,
+                        parts_depth=parts_z, parts_cos=parts_cos, wheels=wheels)
     seeds = rng.integers(0, 2**63 - 1, size=n_frames, dtype=np.int64).astype(np.uint64)
     hem = _hem_centres(body, p.dims, p.shape, 1.0 / spec.fps)
+    tilt_fine = tilt = None
+    rms = _u(rng, spec.vibration_deg) if spec.vibration_deg[1] > 0 else 0.0  # no draw when off: rigid sessions unchanged
+    if rms > 0:
+        tilt_fine = _walker_tilt(wt, wx, rms=np.deg2rad(rms), step_hz=p.gait.cadence / 60.0, rng=rng)
+        tilt = np.stack([np.interp(stamps, wt, tilt_fine[:, k]) for k in (0, 1)], axis=-1)
+        rots, centres = _tilted_camera(r, p.mount, xw, tilt, wheels=wheels)
+        wfc[:, :3, :3] = rots
+        wfc[:, :3, 3] = centres
+        leg_points = np.einsum("tslj,tjk->tslk", pts_w - centres[:, None, None, :], rots)
     return Session(
         spec=spec,
         params=p,
@@ -684,6 +791,9 @@ def generate_session(spec: SessionSpec, *, rng: np.random.Generator) -> Session:
         frame_seeds=seeds,
         _walker_t=wt,
         _walker_x=wx,
+        walker_tilt=tilt,
+        _tilt_t=None if tilt_fine is None else wt,
+        _tilt=tilt_fine,
     )
 
 
