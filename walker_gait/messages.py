@@ -262,16 +262,24 @@ def make_floor_plane(plane: FloorPlane, header: Any) -> Any:
         rms_error=float(plane.rms),
         inlier_ratio=float(plane.inlier_ratio),
         valid=bool(plane.valid),
+        anchor=np.zeros(3) if plane.anchor is None else np.asarray(plane.anchor, dtype=np.float64).reshape(3),
+        heading=np.zeros(3) if plane.heading is None else np.asarray(plane.heading, dtype=np.float64).reshape(3),
     )
 
 
 def floor_from_msg(msg: Any) -> FloorPlane:
+    def vec(v: Any) -> NDArray[np.float64] | None:
+        a = np.asarray(v, dtype=np.float64).reshape(-1)
+        return None if a.size != 3 or not np.any(a) else a  # all zeros: not known
+
     return FloorPlane(
         normal=np.array([msg.a, msg.b, msg.c], dtype=np.float64),
         offset=float(msg.d),
         rms=float(msg.rms_error),
         inlier_ratio=float(msg.inlier_ratio),
         valid=bool(msg.valid),
+        anchor=vec(getattr(msg, "anchor", ())),
+        heading=vec(getattr(msg, "heading", ())),
     )
 
 

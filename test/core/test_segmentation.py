@@ -149,6 +149,8 @@ def test_floor_tracker_smooths_refits_rarely_and_follows_a_bump() -> None:
         plane = tracker.update(PROJ.points(noisy_depth(scene, rng)))
     assert tracker.ransac_runs > runs
     assert angle_deg(plane.normal, scene.floor.normal) < 0.5 and abs(plane.offset - 0.53) < 0.005
+    # a jump restarts the still walker's floor: the walker origin is the new floor's point below the camera
+    assert plane.anchor is not None and np.linalg.norm(plane.anchor + plane.offset * plane.normal) < 0.01
     # no floor visible (all invalid): keep the last plane
     nan_pts = np.full((480, 640, 3), np.nan, np.float32)
     kept = tracker.update(nan_pts)
@@ -156,6 +158,85 @@ def test_floor_tracker_smooths_refits_rarely_and_follows_a_bump() -> None:
     # a tracker that never saw a floor reports an invalid plane
     fresh = FloorTracker(rng=rng)
     assert not fresh.update(nan_pts).valid
+
+
+def test_floor_tracker_follows_a_rocking_walker_frame_by_frame() -> None:
+    """A walker rocks on its wheels as it rolls (pitch and roll by a degree or two, up to ~10 Hz): the camera's
+    floor changes from one frame to the next, and a floor smoothed over frames lags it (with the old default
+    smoothing of 0.2 the error here was ~1 deg, which is 1.7 cm of height at 1 m)."""
+    rng = np.random.default_rng(7)
+    tracker = FloorTracker(FloorConfig(), rng=rng)
+    errs = []
+    for i in range(24):
+        pitch = 30.0 + 1.5 * math.sin(2 * math.pi * i / 5.0)
+        roll = 1.5 * math.cos(2 * math.pi * i / 4.0)
+        scene = make_synthetic_scene(legs=gait_legs(i), camera_height=0.5, pitch_deg=pitch, roll_deg=roll)
+        plane = tracker.update(PROJ.points(noisy_depth(scene, rng)))
+        assert plane.valid and tracker.floor_visible
+        errs.append(angle_deg(plane.normal, scene.floor.normal))
+    assert max(errs[1:]) < 0.15, errs
+    assert tracker.ransac_runs <= 2  # followed by the cheap refit, not by RANSAC
+
+
+def _rocked(pitch_deg: float, roll_deg: float) -> tuple[np.ndarray, np.ndarray]:
+    """World-from-camera rotation and centre of a camera 0.5 m up, pitched down 30 deg, facing -X, on a walker
+    tipped by ``pitch_deg`` onto its front wheels (0.12 m ahead) and by ``roll_deg`` onto its -Y wheels (0.28 m out)."""
+    th = math.radians(30.0)
+    r0 = np.stack([[0.0, 1.0, 0.0], [math.sin(th), 0.0, -math.cos(th)], [-math.cos(th), 0.0, -math.sin(th)]], axis=1)
+    p, r = math.radians(pitch_deg), math.radians(roll_deg)
+    ry = np.array([[math.cos(p), 0.0, math.sin(p)], [0.0, 1.0, 0.0], [-math.sin(p), 0.0, math.cos(p)]])
+    rx = np.array([[1.0, 0.0, 0.0], [0.0, math.cos(r), -math.sin(r)], [0.0, math.sin(r), math.cos(r)]])
+    j = rx @ ry
+    pivot = np.array([0.12, -0.28, 0.0])
+    return j @ r0, pivot + j @ (np.array([0.0, 0.0, 0.5]) - pivot)
+
+
+def test_an_anchored_walker_frame_stays_put_while_the_camera_rocks() -> None:
+    """The camera's foot point moves ~9 mm per degree of rocking; a walker point at floor level does not."""
+    r0, c0 = _rocked(0.0, 0.0)
+    still = FloorPlane(normal=r0.T @ np.array([0.0, 0.0, 1.0]), offset=0.5)
+    anchor = -still.offset * still.normal  # the still floor's point below the camera, camera frame (walker-fixed)
+    heading = np.array([0.0, 0.0, 1.0]) - still.normal[2] * still.normal
+    feet = np.array([[-0.6, 0.08, 0.0], [-1.1, -0.1, 0.0], [-0.9, 0.0, 0.05]])  # world points behind the walker
+    ref = still.to_walker((feet - c0) @ r0)
+    for pitch, roll in ((1.5, 0.0), (-1.5, 1.0), (0.7, -2.0)):
+        r1, c1 = _rocked(pitch, roll)
+        cam = (feet - c1) @ r1
+        n1 = r1.T @ np.array([0.0, 0.0, 1.0])
+        hanging = FloorPlane(normal=n1, offset=float(c1[2])).to_walker(cam)
+        anchored = FloorPlane(normal=n1, offset=float(c1[2]), anchor=anchor, heading=heading).to_walker(cam)
+        np.testing.assert_allclose(anchored[:, 2], ref[:, 2], atol=1e-9)  # heights come from the plane, both right
+        np.testing.assert_allclose(hanging[:, 2], ref[:, 2], atol=1e-9)
+        assert np.abs(anchored[:, :2] - ref[:, :2]).max() < 0.001
+        assert np.abs(hanging[:, :2] - ref[:, :2]).max() > 0.006
+    # without rocking both are the camera's walker frame
+    cam0 = (feet - c0) @ r0
+    np.testing.assert_allclose(FloorPlane(normal=still.normal, offset=0.5, anchor=anchor, heading=heading).to_walker(cam0),
+                               ref, atol=1e-12)
+
+
+def test_floor_tracker_anchors_the_walker_frame_to_the_still_walkers_floor() -> None:
+    rng = np.random.default_rng(9)
+    tracker = FloorTracker(FloorConfig(), rng=rng)
+    still = None
+    for i in range(40):
+        rocking = i >= 10  # the walker stands, then rolls off rocking
+        pitch = 30.0 + (1.5 * math.sin(2 * math.pi * i / 5.0) if rocking else 0.0)
+        roll = 1.5 * math.cos(2 * math.pi * i / 4.0) if rocking else 0.0
+        scene = make_synthetic_scene(legs=gait_legs(i), camera_height=0.5, pitch_deg=pitch, roll_deg=roll)
+        plane = tracker.update(PROJ.points(noisy_depth(scene, rng)))
+        assert plane.anchor is not None and plane.heading is not None
+        if i == 9:
+            still = plane
+        if rocking:
+            assert still is not None
+            assert np.linalg.norm(plane.anchor - (-0.5 * still.normal)) < 0.003
+            assert angle_deg(plane.heading, still.heading) < 0.3
+            assert angle_deg(plane.normal, scene.floor.normal) < 0.15  # the plane itself rocks
+    assert tracker.last is plane
+    # off: the walker frame hangs from the camera
+    plain = FloorTracker(FloorConfig(reference_frames=0), rng=np.random.default_rng(9))
+    assert plain.update(PROJ.points(noisy_depth(scene, rng))).anchor is None
 
 
 # --------------------------------------------------------------------------- segmenter (plane)
@@ -213,6 +294,9 @@ def test_segmentation_output_contract() -> None:
     a = Segmenter(cfg, rng=np.random.default_rng(0), intrinsics=KINECT_INTRINSICS).process(depth, pts)
     b = Segmenter(cfg, rng=np.random.default_rng(0)).process(depth, pts)
     assert a.status == "ok" and a.floor.valid and a.floor_refit
+    # the floor it reports carries the still walker's anchor (its first floor, here) for the walker frame
+    assert a.floor.anchor is not None and np.linalg.norm(a.floor.anchor + a.floor.offset * a.floor.normal) < 1e-9
+    assert Segmenter(cfg, rng=np.random.default_rng(0)).floor.anchor is None  # no floor yet
     assert a.mask.shape == depth.shape and a.mask.dtype == bool
     assert a.points.dtype == np.float32 and a.points.shape == (a.n_foreground, 3) and a.points.flags.c_contiguous
     np.testing.assert_array_equal(a.points, pts[a.mask])

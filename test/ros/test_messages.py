@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import importlib
 import math
 
@@ -36,7 +37,9 @@ def sample_messages():
         M.GAIT_EVENT: M.make_gait_event(event, "cam"),
         M.GAIT_SUMMARY: M.make_gait_summary(summary, header),
         M.LEG_TRACK: M.make_leg_track(pose, header, particle_count=300),
-        M.FLOOR_PLANE: M.make_floor_plane(FloorPlane.from_camera_pose(height=0.5, pitch=0.6), header),
+        M.FLOOR_PLANE: M.make_floor_plane(dataclasses.replace(FloorPlane.from_camera_pose(height=0.5, pitch=0.6),
+                                                              anchor=np.array([0.0, 0.28, 0.41]),
+                                                              heading=np.array([0.0, 0.56, 0.83])), header),
         M.JOINT_STATE: M.make_joint_state(pose, header),
         M.MARKER_ARRAY: M.make_markers(pose, header),
     }
@@ -138,3 +141,16 @@ def test_header_stamps_give_the_seconds_the_recording_readers_give() -> None:
         assert M.stamp_to_s(t) == ns / 1e9
         off_by_a_bit += (float(t.sec) + float(t.nanosec) * 1e-9) != ns / 1e9
     assert off_by_a_bit > 0  # the naive sum really differs for some of these stamps
+
+
+def test_floor_plane_anchor_and_heading_survive_the_message_and_zeros_mean_none() -> None:
+    header = M.make_header(3.5, "cam")
+    plane = dataclasses.replace(FloorPlane.from_camera_pose(height=0.5, pitch=0.6), anchor=np.array([0.01, 0.28, 0.41]),
+                                heading=np.array([0.0, 0.56, 0.83]))
+    back = M.floor_from_msg(M.deserialize(M.serialize(M.make_floor_plane(plane, header)), M.FLOOR_PLANE))
+    np.testing.assert_allclose(back.anchor, plane.anchor)
+    np.testing.assert_allclose(back.heading, plane.heading)
+    np.testing.assert_allclose(back.to_walker(np.array([0.1, 0.2, 1.0])), plane.to_walker(np.array([0.1, 0.2, 1.0])))
+    bare = M.floor_from_msg(M.deserialize(M.serialize(M.make_floor_plane(FloorPlane.from_camera_pose(height=0.5, pitch=0.6),
+                                                                          header)), M.FLOOR_PLANE))
+    assert bare.anchor is None and bare.heading is None

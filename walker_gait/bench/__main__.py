@@ -62,6 +62,9 @@ def section_segmentation(seed: int) -> list[str]:
     log("[bench] depth + segmentation")
     r = run_segmentation_bench(rng=np.random.default_rng(seed))
     keys = {k: v for k, v in r.items() if isinstance(v, (int, float))}
+    # the walker rocking on its wheels (1 deg RMS pitch and roll): does the floor follow it frame by frame?
+    rock = run_segmentation_bench(rng=np.random.default_rng(seed), rocking_deg=1.0)
+    keys.update({f"{k}_rocking_1deg": v for k, v in rock.items() if k.startswith("floor_") and isinstance(v, (int, float))})
     lines = ["## Depth decoding + back-projection + floor + ROI (640x480, one core)", "",
              "| measure | value |", "|---|---|"]
     lines += [f"| {k} | {f(float(v), 3)} |" for k, v in keys.items()]

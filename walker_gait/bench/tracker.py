@@ -188,13 +188,13 @@ def _synth_sequence(
     spec = SessionSpec.preset(scenario, duration=duration, fps=fps)
     session = generate_session(spec, rng=rng)
     intr = session.intrinsics
-    floor = session.floor
     leg_mats = np.array([sb.MAT_SKIN, sb.MAT_TROUSERS, sb.MAT_SHOE])
     frames: list[Frame] = []
     reappear: list[float] = []
     was_absent = False
     for i in range(len(session)):
         rf = session.frame(i)
+        floor = session.floor_at(i)  # the true floor (it moves in the camera frame if the walker rocks)
         depth = np.asarray(session.depth_m(i), dtype=np.float32)
         mask = np.isin(rf.material, leg_mats) & np.isfinite(depth) & (depth > 0)
         vv, uu = np.nonzero(mask)

@@ -101,8 +101,12 @@ class FloorConfig:
     """Max fraction of usable points clearly (3 bands) below an accepted floor."""
     refine_iterations: int = 3
     """Least-squares re-fits on the inliers after RANSAC."""
-    smoothing: float = 0.2
-    """Weight of each new measurement in the exponential smoothing of the tracked plane (0..1]."""
+    smoothing: float = 1.0
+    """Weight of each new measurement in the exponential smoothing of the tracked plane (0..1]; 1 = none, the
+    frame's own least-squares fit.  A walker rocks on its wheels as it rolls (a degree or two of pitch and roll,
+    up to ~10 Hz), which moves the floor in the camera frame from frame to frame: smoothed at 0.2 the plane
+    lagged it by 0.8-1.3 deg (1-2 cm of height at the feet) at 1 deg RMS of rocking, while the fit of one frame's
+    thousands of floor points is within 0.01 deg on a still floor (``make bench``'s floor rows)."""
     refit_interval: int = 90
     """Re-run RANSAC at least every this many frames (frames)."""
     retry_interval: int = 3
@@ -116,6 +120,11 @@ class FloorConfig:
     adopted only if the tracked plane lost support."""
     max_jump_m: float = 0.08
     """Same for the plane offset (camera height, m)."""
+    reference_frames: int = 60
+    """The still walker's floor: the tracked plane averaged over about this many frames (exponentially), to which
+    the walker frame's origin and heading are fixed (``FloorPlane.anchor`` / ``heading``), so that a walker rocking
+    on its wheels does not shake the walker frame with its camera; restarted when the floor jumps (a re-mounted
+    camera, a ramp).  0 = off: the walker frame hangs from the camera (its foot point, its optical axis)."""
 
     def validate(self) -> None:
         """Raise ``ValueError`` naming the first invalid field."""
@@ -137,6 +146,8 @@ class FloorConfig:
             raise ValueError("floor.min_camera_height must be >= 0 and < floor.max_camera_height")
         if not (0 < self.smoothing <= 1):
             raise ValueError(f"floor.smoothing must be in (0, 1], got {self.smoothing}")
+        if self.reference_frames < 0:
+            raise ValueError(f"floor.reference_frames must be >= 0, got {self.reference_frames}")
         if self.refit_interval < 1 or self.retry_interval < 1:
             raise ValueError(
                 "floor.refit_interval and floor.retry_interval must be >= 1, "
@@ -328,13 +339,18 @@ def _angle_deg(n1: F64, n2: F64) -> float:
     return math.degrees(math.acos(float(np.clip(n1 @ n2, -1.0, 1.0))))
 
 
-class FloorTracker:
-    """Temporally smoothed floor plane for a camera rigidly mounted on the walker.
+_FOLLOW_WIDEN = 3.0
+"""Band factor of the first least-squares pass with which :class:`FloorTracker` follows a moving floor."""
 
-    Each :meth:`update` takes a grid subsample (``check_stride``) of the points,
-    measures the near-plane support, the fraction of points below the plane and
-    the residual RMS, refines the plane by least squares on the near-plane points
-    and blends it in with ``smoothing``.  RANSAC (:func:`fit_floor_ransac`) runs
+
+class FloorTracker:
+    """Floor plane of a camera mounted on the walker, followed from frame to frame.
+
+    Each :meth:`update` takes a grid subsample (``check_stride``) of the points, moves the
+    tracked plane to this frame's floor (least squares on the points near it, a wider band
+    first: the walker rocks as it rolls), measures the near-plane support, the fraction of
+    points below the plane and the residual RMS, refines the plane by least squares on the
+    near-plane points and blends it in with ``smoothing`` (default 1: none).  RANSAC (:func:`fit_floor_ransac`) runs
     only when no plane is known, when the support drops / the RMS grows / too many
     points lie below the plane, or every ``refit_interval`` frames.  When no floor
     is visible the last plane is kept (``floor_visible`` False); before a floor was
@@ -360,11 +376,14 @@ class FloorTracker:
         self._since_failure = 10**9
         self._ref_support = 0.0
         self._ref_rms = 0.0
+        self._still: tuple[F64, float] | None = None  # the still walker's floor (normal, offset), see reference_frames
+        self.last: FloorPlane = self.plane  # the plane :meth:`update` returned last (with anchor and heading)
 
     def reset(self) -> None:
         """Forget the plane (e.g. after the camera was re-mounted)."""
         self.plane = invalid_floor(self.config)
         self._since_ransac = 0
+        self._still = None
         self.resets += 1
 
     def _subsample(self, points: NDArray[np.floating], s: int) -> F64:
@@ -414,8 +433,62 @@ class FloorTracker:
         d = (1.0 - a) * self.plane.offset + a * d_meas
         self.plane = FloorPlane(normal=n, offset=float(d), rms=rms, inlier_ratio=ratio, valid=True)
 
+    def _follow(self, pts: F64, gain: F64) -> tuple[F64, float]:
+        """The tracked plane moved to this frame's floor: least squares on the points near it, first in a band
+        ``_FOLLOW_WIDEN`` times wider, then in the usual one.  A walker rocks on its wheels as it rolls (a degree
+        or two of pitch and roll, up to ~10 Hz), so the floor moves in the camera frame from one frame to the
+        next; measured against the last frame's plane, its far part leaves the inlier band and the support
+        test would call the floor lost (a RANSAC every frame).  Falls back to the tracked plane when a fit is
+        implausible or jumps more than ``max_jump_deg``."""
+        cfg = self.config
+        n0, d0 = self.plane.normal, self.plane.offset
+        n, d = n0, d0
+        for widen in (_FOLLOW_WIDEN, 1.0):
+            proj = pts @ n
+            near = np.abs(proj + d) < widen * (cfg.inlier_threshold + gain * np.abs(proj))
+            if int(near.sum()) < 3:
+                break
+            fit = _lsq_plane(pts[near])
+            if fit is None:
+                break
+            n1, d1 = _orient_up(*fit)
+            if not _plausible(n1, d1, cfg, self._up) or _angle_deg(n1, n0) > cfg.max_jump_deg:
+                break
+            n, d = n1, d1
+        return n, d
+
     def update(self, points: NDArray[np.floating]) -> FloorPlane:
-        """Update with one frame's camera-frame points (``(H, W, 3)`` image or ``(N, 3)``); return the plane."""
+        """Update with one frame's camera-frame points (``(H, W, 3)`` image or ``(N, 3)``); return the plane, with
+        the still walker's anchor and heading (``reference_frames``) once one is known."""
+        resets = self.resets
+        plane = self._update(points)
+        self.last = self._anchored(plane, resets=resets)
+        return self.last
+
+    def _anchored(self, plane: FloorPlane, *, resets: int) -> FloorPlane:
+        """``plane`` with the still walker's anchor and heading (``resets``: the reset count before this frame)."""
+        cfg = self.config
+        if not plane.valid or cfg.reference_frames <= 0:
+            return plane
+        n, d = np.asarray(plane.normal, dtype=np.float64), float(plane.offset)
+        if self.floor_visible:
+            still = self._still
+            if still is None or self.resets != resets or _angle_deg(still[0], n) > cfg.max_jump_deg:
+                self._still = (n.copy(), d)
+            else:
+                a = 1.0 / cfg.reference_frames
+                n_s = (1.0 - a) * still[0] + a * n
+                self._still = (n_s / np.linalg.norm(n_s), (1.0 - a) * still[1] + a * d)
+        if self._still is None:
+            return plane
+        n_s, d_s = self._still
+        optical = np.array([0.0, 0.0, 1.0])
+        heading = optical - (optical @ n_s) * n_s
+        if np.linalg.norm(heading) < 1e-6:  # looking straight down: the walker frame's own fallback
+            return plane
+        return replace(plane, anchor=-d_s * n_s, heading=heading / np.linalg.norm(heading))
+
+    def _update(self, points: NDArray[np.floating]) -> FloorPlane:
         cfg = self.config
         self.frames += 1
         self._since_ransac += 1
@@ -447,7 +520,7 @@ class FloorTracker:
         if pts.shape[0] < 3:
             self.floor_visible = False
             return self.plane
-        n0, d0 = self.plane.normal, self.plane.offset
+        n0, d0 = self._follow(pts, gain)
         support, below, rms, near = self._stats(pts, gain, n0, d0)
         lost = (
             support < cfg.min_support_ratio * self._ref_support
@@ -1259,15 +1332,15 @@ class Segmenter:
 
     @property
     def floor(self) -> FloorPlane:
-        """Current tracked floor plane."""
-        return self.floor_tracker.plane
+        """Current tracked floor plane (with the still walker's anchor and heading)."""
+        return self.floor_tracker.last
 
     def _empty(self, shape: tuple[int, int], status: str, **counts: int) -> Segmentation:
         self.empty_frames += 1
         return Segmentation(
             mask=np.zeros(shape, dtype=bool),
             points=np.empty((0, 3), dtype=np.float32),
-            floor=self.floor_tracker.plane,
+            floor=self.floor_tracker.last,
             status=status,
             floor_visible=self.floor_tracker.floor_visible,
             floor_refit=self.floor_tracker.refit_this_frame,

@@ -16,7 +16,9 @@ walker frame (``walker``)
     origin = camera centre projected onto the floor, +z up (floor normal),
     +x = optical axis projected onto the floor (pointing from the camera
     towards the user), +y = z × x (the camera's left).  The user walks
-    towards -x (they follow the walker).  See :meth:`FloorPlane.walker_transform`.
+    towards -x (they follow the walker).  With ``FloorPlane.anchor`` / ``heading`` (what the floor
+    tracker reports) the origin and +x are the still walker's, so that a walker rocking on its wheels
+    does not shake the frame.  See :meth:`FloorPlane.walker_transform`.
 
 Indexing
 --------
@@ -159,6 +161,14 @@ class FloorPlane:
     ``normal`` is a unit vector pointing *up* (away from the floor, towards the
     camera side), so :meth:`height` is positive above the floor and
     ``offset`` equals the camera's height above the floor.
+
+    ``anchor`` and ``heading`` (optional) fix the walker frame to the walker's body rather than to the camera:
+    a walker rocks on its wheels as it rolls, the camera with it, and the camera's own foot point and optical
+    axis then move over the floor (about 9 mm per degree for a camera 0.5 m up), while a point of the walker at
+    floor level and its forward direction stay put to first order.  ``anchor`` is such a point (camera frame, m;
+    :class:`~walker_gait.core.segmentation.FloorTracker` takes the foot point of the still walker's floor) and
+    ``heading`` such a direction (the still walker's optical axis on its floor); without them the walker frame
+    hangs from the camera, as for a rigid walker they coincide.
     """
 
     normal: FloatArray
@@ -166,6 +176,8 @@ class FloorPlane:
     rms: float = 0.0  # RMS point-to-plane residual of the inliers (m)
     inlier_ratio: float = 0.0  # inliers / candidate floor points (0..1)
     valid: bool = True
+    anchor: FloatArray | None = None  # (3,) camera frame: walker point at floor level; the walker origin is its foot point on this plane
+    heading: FloatArray | None = None  # (3,) camera frame: walker direction whose projection on this plane is the walker +x
 
     def height(self, points: FloatArray) -> FloatArray:
         """Signed height (m) of ``(..., 3)`` camera-frame points above the floor."""
@@ -175,8 +187,8 @@ class FloorPlane:
         """Rotation ``R`` (3x3) and translation ``t`` with ``p_walker = R @ p_camera + t``."""
         n = np.asarray(self.normal, dtype=np.float64)
         n = n / np.linalg.norm(n)
-        optical = np.array([0.0, 0.0, 1.0])
-        x_axis = optical - (optical @ n) * n
+        forward = np.array([0.0, 0.0, 1.0]) if self.heading is None else np.asarray(self.heading, dtype=np.float64)
+        x_axis = forward - (forward @ n) * n
         norm = np.linalg.norm(x_axis)
         if norm < 1e-6:  # camera looking straight down: fall back to image "down" direction
             down = np.array([0.0, 1.0, 0.0])
@@ -185,9 +197,12 @@ class FloorPlane:
         x_axis = x_axis / norm
         y_axis = np.cross(n, x_axis)
         rot = np.stack([x_axis, y_axis, n])
-        # camera centre (origin) is at height `offset`; its floor projection is the walker origin
-        t = np.array([0.0, 0.0, self.offset])
-        return rot, t
+        if self.anchor is None:
+            # camera centre (origin) is at height `offset`; its floor projection is the walker origin
+            return rot, np.array([0.0, 0.0, self.offset])
+        a = np.asarray(self.anchor, dtype=np.float64)
+        origin = a - (a @ n + self.offset) * n  # the anchor's foot point on this plane
+        return rot, -(rot @ origin)
 
     def to_walker(self, points: FloatArray) -> FloatArray:
         """Transform ``(..., 3)`` camera-frame points into the walker frame."""
