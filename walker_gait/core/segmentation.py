@@ -397,10 +397,14 @@ class FloorTracker:
         pts = self._subsample(points, self.config.check_stride)
         return pts, _noise_gain(pts, self.config)
 
-    def _stats(self, pts: F64, gain: F64, n: F64, d: float) -> tuple[float, float, float, BoolArray]:
+    def _band(self, pts: F64, gain: F64, n: F64) -> tuple[F64, F64]:
+        """``(pts @ n, inlier band half-width)`` per point for a plane of normal ``n`` (the band grows with range)."""
         proj = pts @ n
+        return proj, self.config.inlier_threshold + gain * np.abs(proj)
+
+    def _stats(self, pts: F64, gain: F64, n: F64, d: float) -> tuple[float, float, float, BoolArray]:
+        proj, band = self._band(pts, gain, n)
         h = proj + d
-        band = self.config.inlier_threshold + gain * np.abs(proj)
         near = np.abs(h) < band
         cnt = int(near.sum())
         support = cnt / max(1, pts.shape[0])
@@ -444,8 +448,8 @@ class FloorTracker:
         n0, d0 = self.plane.normal, self.plane.offset
         n, d = n0, d0
         for widen in (_FOLLOW_WIDEN, 1.0):
-            proj = pts @ n
-            near = np.abs(proj + d) < widen * (cfg.inlier_threshold + gain * np.abs(proj))
+            proj, band = self._band(pts, gain, n)
+            near = np.abs(proj + d) < widen * band
             if int(near.sum()) < 3:
                 break
             fit = _lsq_plane(pts[near])
