@@ -288,8 +288,7 @@ class Session:
     _walker_t: FloatArray = field(repr=False)
     _walker_x: FloatArray = field(repr=False)
     walker_tilt: FloatArray | None = None  # (T, 2) pitch, roll (rad) of a vibrating walker at the frames; None: rigid on the floor
-    _tilt_t: FloatArray | None = field(default=None, repr=False)  # fine time grid of the tilt (camera poses between frames)
-    _tilt: FloatArray | None = field(default=None, repr=False)  # (N, 2) tilt on that grid
+    _tilt: FloatArray | None = field(default=None, repr=False)  # (N, 2) tilt on the walker's time grid (_walker_t)
 
     # ------------------------------------------------------------------ basics
     @property
@@ -323,10 +322,10 @@ class Session:
         t = np.atleast_1d(np.asarray(t, float))
         xw = np.interp(t, self._walker_t, self._walker_x)
         m = self.params.mount
-        if self._tilt is None or self._tilt_t is None:
+        if self._tilt is None:
             c = np.stack([xw, np.full_like(xw, m.lateral), np.full_like(xw, m.height)], axis=-1)
             return np.broadcast_to(m.rotation(), (t.size, 3, 3)).copy(), c
-        tilt = np.stack([np.interp(t, self._tilt_t, self._tilt[:, k]) for k in (0, 1)], axis=-1)
+        tilt = np.stack([np.interp(t, self._walker_t, self._tilt[:, k]) for k in (0, 1)], axis=-1)
         return _tilted_camera(m.rotation(), m, xw, tilt, wheels=self.scene.wheels)
 
     def world_to_camera(self, points: FloatArray, t: FloatArray) -> FloatArray:
@@ -792,7 +791,6 @@ def generate_session(spec: SessionSpec, *, rng: np.random.Generator) -> Session:
         _walker_t=wt,
         _walker_x=wx,
         walker_tilt=tilt,
-        _tilt_t=None if tilt_fine is None else wt,
         _tilt=tilt_fine,
     )
 
