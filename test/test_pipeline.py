@@ -6,6 +6,7 @@ a second process; results, warnings and errors must be exactly those of the inli
 
 from __future__ import annotations
 
+import dataclasses
 import warnings
 from pathlib import Path
 from typing import Any
@@ -49,10 +50,16 @@ def test_prepared_frame_pickles_with_sparse_depth() -> None:
 
     depth = np.full((6, 8), np.nan, dtype=np.float32)
     depth[2, 3], depth[5, 7] = 1.25, 0.5
+    no_depth = np.zeros((6, 8), dtype=bool)
+    no_depth[0, 1:6] = True
     frame = PreparedFrame(stamp=1.0, intrinsics=CameraIntrinsics(width=8, height=6, fx=5.0, fy=5.0, cx=4.0, cy=3.0),
                           points=np.ones((2, 3)), depth_fg=depth,
-                          floor=FloorPlane(normal=np.array([0.0, -1.0, 0.0]), offset=0.5), timings_ms={"depth": 1.0})
+                          floor=FloorPlane(normal=np.array([0.0, -1.0, 0.0]), offset=0.5), timings_ms={"depth": 1.0},
+                          no_depth=no_depth)
     back = pickle.loads(pickle.dumps(frame))
+    np.testing.assert_array_equal(back.no_depth, no_depth)
+    assert back.no_depth.dtype == bool
+    assert pickle.loads(pickle.dumps(dataclasses.replace(frame, no_depth=None))).no_depth is None
     np.testing.assert_array_equal(back.depth_fg, depth)
     assert back.depth_fg.dtype == np.float32 and back.depth_fg.shape == (6, 8)
     assert back.intrinsics == frame.intrinsics and back.stamp == 1.0

@@ -185,13 +185,37 @@ def make_image(array: NDArray[Any], header: Any, *, encoding: str) -> Any:
     )
 
 
-def image_to_mask(msg: Any) -> NDArray[np.bool_]:
-    """mono8 ``Image`` → HxW bool (non-zero = True)."""
+MASK_FOREGROUND = 255
+"""``foreground/mask`` value of a foreground (leg) pixel."""
+MASK_NO_DEPTH = 64
+"""``foreground/mask`` value of a pixel without a depth measurement (nearer than the sensor's near limit, IR
+shadow, dropouts): unknown to the tracker, neither foreground nor background (0)."""
+
+
+def make_foreground_mask(mask: NDArray[np.bool_], no_depth: NDArray[np.bool_] | None, header: Any) -> Any:
+    """``foreground/mask`` image: ``MASK_FOREGROUND`` on ``mask``, ``MASK_NO_DEPTH`` on ``no_depth``, 0 elsewhere."""
+    img = np.zeros(mask.shape, dtype=np.uint8)
+    if no_depth is not None:
+        img[no_depth] = MASK_NO_DEPTH
+    img[mask] = MASK_FOREGROUND
+    return make_image(img, header, encoding="mono8")
+
+
+def _mono8_rows(msg: Any) -> NDArray[np.uint8]:
     if msg.encoding != "mono8":
         raise ValueError(f"mask image must be mono8, got {msg.encoding!r}")
     data = np.asarray(msg.data, dtype=np.uint8)
-    rows = data[: msg.height * msg.step].reshape(msg.height, msg.step)[:, : msg.width]
-    return rows != 0
+    return data[: msg.height * msg.step].reshape(msg.height, msg.step)[:, : msg.width]
+
+
+def image_to_mask(msg: Any) -> NDArray[np.bool_]:
+    """mono8 ``foreground/mask`` ``Image`` → HxW bool foreground (values of 128 and more)."""
+    return _mono8_rows(msg) >= 128
+
+
+def image_to_no_depth(msg: Any) -> NDArray[np.bool_]:
+    """mono8 ``foreground/mask`` ``Image`` → HxW bool, pixels marked ``MASK_NO_DEPTH``."""
+    return _mono8_rows(msg) == MASK_NO_DEPTH
 
 
 # ----------------------------------------------------------------------------------- point clouds

@@ -144,14 +144,18 @@ class PreparedFrame:
     depth_fg: np.ndarray  # (H, W) foreground depth, NaN elsewhere
     floor: FloorPlane
     timings_ms: dict[str, float]
+    no_depth: np.ndarray | None = None  # (H, W) bool, pixels without a depth measurement
 
     def __getstate__(self) -> dict[str, Any]:
-        # pickled between processes (`prefetch`): the foreground depth travels sparse (a few % of pixels)
+        # pickled between processes (`prefetch`): the foreground depth travels sparse (a few % of pixels),
+        # the no-depth mask as bits
         state = dict(self.__dict__)
         depth = state.pop("depth_fg")
         flat = depth.ravel()
         idx = np.flatnonzero(~np.isnan(flat))
         state["_depth_sparse"] = (depth.shape, depth.dtype.str, idx.astype(np.int32), flat[idx])
+        no_depth = state.pop("no_depth")
+        state["_no_depth_bits"] = None if no_depth is None else (no_depth.shape, np.packbits(no_depth, axis=None))
         return state
 
     def __setstate__(self, state: dict[str, Any]) -> None:
@@ -159,6 +163,9 @@ class PreparedFrame:
         depth = np.full(int(np.prod(shape)), np.nan, dtype=np.dtype(dtype))
         depth[idx] = values
         state["depth_fg"] = depth.reshape(shape)
+        bits = state.pop("_no_depth_bits", None)
+        state["no_depth"] = None if bits is None else (
+            np.unpackbits(bits[1], count=int(np.prod(bits[0]))).astype(bool).reshape(bits[0]))
         self.__dict__.update(state)
 
 
@@ -222,7 +229,8 @@ class FrameProcessor:
         t2 = time.perf_counter()
         return PreparedFrame(stamp=stamp, intrinsics=self.intrinsics, points=seg.points,
                              depth_fg=seg.foreground_depth(depth), floor=seg.floor,
-                             timings_ms={"depth": (t1 - t0) * 1e3, "segmentation": (t2 - t1) * 1e3})
+                             timings_ms={"depth": (t1 - t0) * 1e3, "segmentation": (t2 - t1) * 1e3},
+                             no_depth=seg.no_depth)
 
     def track(self, frame: PreparedFrame) -> FrameResult:
         """Tracker and gait analyzer on a prepared frame (a new calibration restarts the tracker).
@@ -244,7 +252,8 @@ class FrameProcessor:
                                       rng=stage_rng(self.options.seed, "leg_tracker"), mounting=self.options.mounting)
             self._tracker_intrinsics = frame.intrinsics
         t2 = time.perf_counter()
-        pose = self.tracker.update(stamp=frame.stamp, points=frame.points, depth_fg=frame.depth_fg, floor=frame.floor)
+        pose = self.tracker.update(stamp=frame.stamp, points=frame.points, depth_fg=frame.depth_fg, floor=frame.floor,
+                                   no_depth=frame.no_depth)
         t3 = time.perf_counter()
         events, steps = self.analyzer.update(pose, frame.floor)
         t4 = time.perf_counter()

@@ -249,3 +249,25 @@ def test_a_cut_shoe_keeps_its_tracked_toe_along_the_foot_and_its_measured_centre
     assert (got[0, :2] - toes[0, :2]) @ v == pytest.approx((measured[0, :2] - toes[0, :2]) @ v)  # across: measured
     assert got[0, 2] == toes[0, 2]
     np.testing.assert_array_equal(across_only(legs, measured, np.array([False, False])), measured)
+
+
+def test_a_toe_box_nearer_than_the_sensor_reaches_is_not_measured() -> None:
+    """A toe box closer to the camera than the sensor's near limit is a hole in the depth image: what is left of the
+    shoe ends at the hole, and its front is not the toe box."""
+    rng = np.random.default_rng(9)
+    heels = np.array([[0.0, 0.07, 0.0], [0.25, -0.07, 0.0]])
+    toes = heels + np.array([0.26, 0.0, 0.0])
+    rot, cam = _camera_pose(np.radians(35.0))
+    to_cam = lambda p: (np.asarray(p) - cam) @ rot.T  # noqa: E731
+    legs_cam = to_cam(_legs(heels, toes).reshape(-1, 3)).reshape(2, 5, 3)
+    toes_cam = to_cam(toes)
+    assert toes_in_view(legs_cam, toes_cam, intrinsics=INTR).all()
+    no_depth = np.zeros((INTR.height, INTR.width), dtype=bool)
+    np.testing.assert_array_equal(toes_in_view(legs_cam, toes_cam, intrinsics=INTR, no_depth=no_depth), [True, True])
+    u, v = (int(round(c)) for c in INTR.project(legs_cam[0, TOE][None])[0])
+    no_depth[v - 20: v + 20, u - 20: u + 20] = True  # the left toe box unmeasured
+    np.testing.assert_array_equal(toes_in_view(legs_cam, toes_cam, intrinsics=INTR, no_depth=no_depth), [False, True])
+    # a few unmeasured pixels at the shoe's outline (IR shadow, speckle) do not cut it
+    speckle = np.zeros_like(no_depth)
+    speckle[v - 4: v + 5: 3, u - 4: u + 5: 3] = True
+    assert toes_in_view(legs_cam, toes_cam, intrinsics=INTR, no_depth=speckle)[0]

@@ -356,3 +356,73 @@ def test_workspace_reuses_and_grows_buffers() -> None:
     d = work.buffer("x", (3,), np.bool_)  # another dtype is another buffer
     assert d.dtype == np.bool_ and not np.shares_memory(c, d)
     assert not np.shares_memory(work.buffer("y", (4, 5)), work.buffer("x", (4, 5)))
+
+
+# -- pixels without a depth measurement ---------------------------------------------------------
+def _holed(frame):  # noqa: ANN001, ANN202
+    """The frame with the left calf and foot's pixels unmeasured (a leg nearer than the sensor's near limit)."""
+    seg, rad = _cam(_truth()[None])
+    full = (0, KINECT.height, 0, KINECT.width)
+    cue = CueImage.from_depth(frame.depth, intrinsics=KINECT, stride=1, floor=FLOOR)
+    lower_left = render_depth(seg[:, 1:3], rad[:, 1:3], cue=cue, bbox=full)[0].reshape(KINECT.height, KINECT.width)
+    hole = np.isfinite(lower_left) & np.isfinite(frame.depth)
+    depth = np.where(hole, np.float32(np.nan), frame.depth).astype(np.float32)
+    return depth, hole
+
+
+def test_a_leg_over_pixels_without_depth_costs_nothing_in_the_2d_cue(frame) -> None:  # noqa: ANN001
+    depth, hole = _holed(frame)
+    assert hole.sum() > 500
+    clip = np.array([False, False, True] * 2)
+    seg, rad = _cam(_truth()[None])
+    as_background = CueImage.from_depth(depth, intrinsics=KINECT, stride=1, floor=FLOOR, min_height=0.03)
+    as_unknown = CueImage.from_depth(depth, intrinsics=KINECT, stride=1, floor=FLOOR, min_height=0.03, unknown=hole)
+    assert as_background.unknown is None and as_unknown.unknown is not None
+    params = Cue2DParams(truncate=0.5)
+    ll_bg = log_likelihood_2d(seg, rad, cue=as_background, params=params, floor_clip=clip)[0]
+    ll_unk = log_likelihood_2d(seg, rad, cue=as_unknown, params=params, floor_clip=clip)[0]
+    # the true legs explain every measured pixel; over the hole, the paper's convention charges them as if over
+    # background, the unknown pixels charge nothing
+    assert -ll_unk / params.lam < 1e-3
+    assert -ll_bg / params.lam > 20 * (-ll_unk / params.lam) + 1e-3
+    # the model leg pulled out of the hole is no better than the true one any more
+    x = np.tile(_truth(), (2, 1))
+    x[1, L.LEFT.start + L.KNEE_FLEX] += 0.5
+    seg2, rad2 = _cam(lm.enforce_constraints(x)[0])
+    ll = log_likelihood_2d(seg2, rad2, cue=as_unknown, params=params, floor_clip=clip)
+    assert ll[0] > ll[1]
+
+
+def test_2d_cue_leaves_exactly_the_pixels_without_depth_out_of_its_sum(frame) -> None:  # noqa: ANN001
+    depth, hole = _holed(frame)
+    cue = CueImage.from_depth(depth, intrinsics=KINECT, stride=8, floor=FLOOR, min_height=0.03, unknown=hole)
+    assert cue.unknown is not None and cue.unknown.any()
+    seg, rad = _cam(_perturbed())
+    bbox = (0, cue.intrinsics.height, 0, cue.intrinsics.width)
+    params = Cue2DParams(occlusion_aware=True, truncate=0.5)
+    costs = depth_costs(render_depth(seg, rad, cue=cue, bbox=bbox), cue.depth.ravel(), params=params)
+    measured = ~cue.unknown.ravel()
+    ref = -params.lam * costs[:, measured].sum(axis=1, dtype=np.float64) / cue.depth.size
+    np.testing.assert_allclose(log_likelihood_2d(seg, rad, cue=cue, params=params, bbox=bbox), ref, rtol=1e-6)
+    assert not np.allclose(ref, -params.lam * costs.sum(axis=1, dtype=np.float64) / cue.depth.size, rtol=1e-3)
+
+
+def test_skeleton_points_over_pixels_without_depth_count_as_occluded(frame) -> None:  # noqa: ANN001
+    depth, hole = _holed(frame)
+    seg, rad = _cam(_truth()[None])
+    pts, w = skeleton_points(seg, rad, n=6)
+    as_background = CueImage.from_depth(depth, intrinsics=KINECT, stride=4, floor=FLOOR)
+    as_unknown = CueImage.from_depth(depth, intrinsics=KINECT, stride=4, floor=FLOOR, unknown=hole)
+    lower_left = pts[0, 1:3].reshape(-1, 3)
+    over = as_unknown.unknown_at(lower_left)
+    assert over.mean() > 0.5
+    assert not as_background.occluded(lower_left, w[0, 1:3].ravel(), tol=0.04)[over].any()
+    assert as_unknown.occluded(lower_left, w[0, 1:3].ravel(), tol=0.04)[over].all()
+    # the right leg, measured, is not affected
+    assert not as_unknown.unknown_at(pts[0, 3:].reshape(-1, 3)).any()
+    # a pixel whose foreground depth was measured is never unknown, whatever the mask says
+    everywhere = CueImage.from_depth(frame.depth, intrinsics=KINECT, stride=4, floor=FLOOR,
+                                     unknown=np.ones_like(hole))
+    assert everywhere.unknown is not None and not (everywhere.unknown & (everywhere.depth > 0)).any()
+    with pytest.raises(ValueError, match="unknown shape"):
+        CueImage.from_depth(frame.depth, intrinsics=KINECT, stride=4, floor=FLOOR, unknown=hole[:-1])

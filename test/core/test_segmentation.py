@@ -308,6 +308,14 @@ def test_segmentation_output_contract() -> None:
     assert np.count_nonzero(a.mask != b.mask) <= 5
     fg = a.foreground_depth(depth)
     assert np.all(np.isnan(fg[~a.mask])) and np.array_equal(fg[a.mask], depth[a.mask])
+    # pixels without a measurement in the configured range are unknown, never foreground
+    near = depth.copy()
+    near[:40] = 0.1  # nearer than min_range (0.2 m)
+    d = Segmenter(cfg, rng=np.random.default_rng(0), intrinsics=KINECT_INTRINSICS).process(near, PROJ.points(near))
+    assert d.no_depth is not None and d.no_depth.shape == depth.shape and d.no_depth.dtype == bool
+    np.testing.assert_array_equal(d.no_depth, ~np.isfinite(near) | (near < cfg.min_range) | (near > cfg.max_range))
+    assert d.no_depth[:40].all() and np.isnan(depth).any() and d.no_depth[np.isnan(depth)].all()
+    assert not (d.no_depth & d.mask).any()
 
 
 def test_thin_parts_drops_tubes_keeps_legs() -> None:

@@ -234,6 +234,12 @@ def test_segment_visibility_follows_the_observed_depth() -> None:
     assert unsupported["no_left"].tolist() == [True, False]
     assert unsupported["full"].tolist() == [False, False]
     assert unsupported["occluded"].tolist() == [False, False]
+    # the left leg's pixels without depth (nearer than the sensor reaches): neither seen nor over nothing
+    hole = np.isfinite(full.depth) & ~np.isfinite(no_left.depth)
+    frame = tracker._prepare(no_left.points.astype(float), no_left.depth, floor, hole)
+    vis, unsup = tracker._visibility(frame, seg, rad)
+    assert np.all(vis[0] < 0.2) and np.all(vis[1, 1:] > 0.8), vis
+    assert unsup.tolist() == [False, False]
 
 
 @pytest.mark.parametrize("fine_2d_only", [False, True])
@@ -911,3 +917,31 @@ def test_a_new_track_waits_for_the_second_leg() -> None:
     tr.update(stamp=0.0, points=right, depth_fg=right_depth, floor=floor)
     assert tr.particles is not None
     assert DEFAULT.single_leg_wait_s > 0 and PAPER.single_leg_wait_s == 0
+
+
+def test_a_leg_in_a_hole_of_the_depth_image_is_carried_not_thrown_out() -> None:
+    """A leg nearer to the camera than the sensor's near limit leaves a hole in the depth image, not background.
+    Given the pixels without depth, the tracker carries the leg through the hole; without them it reads the hole as
+    "no leg here" and moves the leg away (left leg gone from the data for 0.4 s of a 1 s walk)."""
+    full = own_sequence(scenario="normal", n_frames=30, rng=np.random.default_rng(1))
+    gap = own_sequence(scenario="one_leg_gap", n_frames=30, rng=np.random.default_rng(1))
+    holes = [np.isfinite(f.depth) & ~np.isfinite(g.depth) for f, g in zip(full.frames, gap.frames)]
+    dropped = np.array([h.sum() > 1000 for h in holes])
+    assert dropped.sum() == 12 and not dropped[:10].any()
+    errs = {}
+    for use in (False, True):
+        tr = LegTracker(FAST, KINECT, rng=np.random.default_rng(0))
+        e = []
+        for g, hole in zip(gap.frames, holes):
+            p = tr.update(stamp=g.stamp, points=g.points, depth_fg=g.depth, floor=g.floor, no_depth=hole if use else None)
+            e.append(np.linalg.norm(p.points[0, 1:] - g.gt[0, 1:], axis=-1).mean())  # left knee, ankle, heel, toe
+        errs[use] = np.array(e)
+    assert errs[True][dropped].mean() < 0.5 * errs[False][dropped].mean(), errs
+    after = np.flatnonzero(dropped)[-1] + 1
+    assert errs[True][after:].mean() < 0.10 < errs[False][after:].mean(), errs
+    # the paper preset keeps the paper's convention (no depth = background)
+    assert not PAPER.no_depth_unknown and DEFAULT.no_depth_unknown
+    with pytest.raises(TrackerInputError, match="no_depth"):
+        LegTracker(FAST, KINECT, rng=np.random.default_rng(0)).update(
+            stamp=0.0, points=gap.frames[0].points, depth_fg=gap.frames[0].depth, floor=gap.frames[0].floor,
+            no_depth=holes[0][:-1])

@@ -154,3 +154,23 @@ def test_floor_plane_anchor_and_heading_survive_the_message_and_zeros_mean_none(
     bare = M.floor_from_msg(M.deserialize(M.serialize(M.make_floor_plane(FloorPlane.from_camera_pose(height=0.5, pitch=0.6),
                                                                           header)), M.FLOOR_PLANE))
     assert bare.anchor is None and bare.heading is None
+
+
+def test_foreground_mask_carries_the_pixels_without_depth() -> None:
+    header = M.make_header(1.0, "cam")
+    mask = np.zeros((6, 8), dtype=bool)
+    mask[2:4, 3:5] = True
+    no_depth = np.zeros_like(mask)
+    no_depth[0, :] = True
+    no_depth[5, 6] = True
+    msg = M.deserialize(M.serialize(M.make_foreground_mask(mask, no_depth, header)), M.IMAGE)
+    assert msg.encoding == "mono8"
+    np.testing.assert_array_equal(M.image_to_mask(msg), mask)
+    np.testing.assert_array_equal(M.image_to_no_depth(msg), no_depth)
+    data = np.asarray(msg.data).reshape(6, 8)
+    assert data[2, 3] == M.MASK_FOREGROUND and data[0, 0] == M.MASK_NO_DEPTH and data[1, 0] == 0
+    # a plain 0 / 255 mask (an older recording) has no unknown pixels
+    plain = M.make_image(mask.astype(np.uint8) * 255, header, encoding="mono8")
+    np.testing.assert_array_equal(M.image_to_mask(plain), mask)
+    assert not M.image_to_no_depth(plain).any()
+    assert not M.image_to_no_depth(M.make_foreground_mask(mask, None, header)).any()

@@ -170,10 +170,13 @@ def measure_toes(
 
 
 def toes_in_view(
-    legs: FloatArray, toes: FloatArray, *, intrinsics: CameraIntrinsics, fit: ToeFit = ToeFit()
+    legs: FloatArray, toes: FloatArray, *, intrinsics: CameraIntrinsics, fit: ToeFit = ToeFit(),
+    no_depth: NDArray[np.bool_] | None = None,
 ) -> BoolArray:
     """Per side, whether the front of the shoe can be in the image: the tracked toe and the measured one both
-    project at least ``border_px`` inside the image's border.
+    project at least ``border_px`` inside the image's border, and (with ``no_depth``, ``(H, W)`` pixels without a
+    depth measurement) most pixels within ``border_px`` of the tracked toe's were measured: a toe box nearer to
+    the camera than the sensor's near limit is a hole in the image, and what is left of the shoe ends there.
 
     ``legs`` ``(2, 5, 3)`` tracked ``LEG_POINTS`` and ``toes`` ``(2, 3)`` measured toes, camera optical frame.  A
     foot that leaves the image (a user close to the camera lands their leading foot below the image's bottom
@@ -190,7 +193,14 @@ def toes_in_view(
     with np.errstate(invalid="ignore"):
         inside = ((uv[..., 0] >= m) & (uv[..., 0] <= intrinsics.width - 1 - m)
                   & (uv[..., 1] >= m) & (uv[..., 1] <= intrinsics.height - 1 - m))
-    return np.all(inside, axis=1)
+    ok = np.all(inside, axis=1)
+    if no_depth is not None:
+        r = max(int(round(m)), 1)
+        for side in np.flatnonzero(ok):
+            u, v = (int(round(float(c))) for c in uv[side, 0])
+            win = no_depth[max(v - r, 0): v + r + 1, max(u - r, 0): u + r + 1]
+            ok[side] = not (win.size and np.count_nonzero(win) * 2 > win.size)
+    return ok
 
 
 def across_only(legs: FloatArray, toes: FloatArray, sides: BoolArray) -> FloatArray:

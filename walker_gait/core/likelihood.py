@@ -254,7 +254,10 @@ class CueImage:
     ``depth``: ``(h, w)`` float32, 0 where background/invalid (paper convention);
     ``intrinsics``: of the cue image; ``ray_up``: ``(h, w)`` float32, floor normal · pixel
     ray ``(x/z, y/z, 1)`` so a surface point at depth ``z`` has floor height
-    ``z * ray_up + floor_offset``.
+    ``z * ray_up + floor_offset``; ``unknown``: ``(h, w)`` bool, pixels without a depth measurement
+    (closer than the sensor's near limit, IR shadow, dropouts), or None when every pixel was measured or
+    missing depth counts as background (paper).  Neither cue holds anything against a model surface there:
+    a leg closer to the camera than the sensor's near limit is a hole in the image, not background.
     """
 
     depth: F32
@@ -264,6 +267,7 @@ class CueImage:
     floor_normal: FloatArray
     min_height: float  # m: the segmentation drops points lower than this above the floor
     fg_bbox: tuple[int, int, int, int] | None  # (v0, v1, u0, u1) half-open, None if empty
+    unknown: BoolArray | None = None
 
     @staticmethod
     def from_depth(
@@ -273,11 +277,13 @@ class CueImage:
         stride: int,
         floor: FloorPlane,
         min_height: float = 0.0,
+        unknown: NDArray[np.bool_] | None = None,
     ) -> CueImage:
         """Sub-sample the full-resolution foreground depth (NaN = background) by ``stride``.
 
         ``min_height`` (m): height above the floor under which the segmentation removed points;
-        model surface lower than that is treated as unobservable by both cues.
+        model surface lower than that is treated as unobservable by both cues.  ``unknown``:
+        full-resolution ``(H, W)`` bool, pixels without a depth measurement (see the class), or None.
 
         Pixel centres are kept aligned with :meth:`CameraIntrinsics.scaled` (``1/stride``).
         """
@@ -293,6 +299,16 @@ class CueImage:
             pad = np.full((intr.height, intr.width), np.nan, np.float32)
             pad[: sub.shape[0], : sub.shape[1]] = sub
             sub = pad
+        unk = None
+        if unknown is not None:
+            if unknown.shape != depth_fg.shape:
+                raise ValueError(f"unknown shape {unknown.shape} != depth_fg shape {depth_fg.shape}")
+            cut = np.asarray(unknown, dtype=bool)[off::stride, off::stride][: intr.height, : intr.width]
+            unk = np.zeros((intr.height, intr.width), dtype=bool)
+            unk[: cut.shape[0], : cut.shape[1]] = cut
+            unk &= ~(np.isfinite(sub) & (sub > 0))  # a foreground pixel was measured
+            if not unk.any():
+                unk = None
         depth = np.where(np.isfinite(sub) & (sub > 0), sub, 0.0).astype(np.float32)
         u = (np.arange(intr.width, dtype=np.float64) - intr.cx) / intr.fx
         v = (np.arange(intr.height, dtype=np.float64) - intr.cy) / intr.fy
@@ -309,6 +325,7 @@ class CueImage:
             floor_normal=nrm / np.linalg.norm(nrm),
             min_height=float(min_height),
             fg_bbox=bbox,
+            unknown=unk,
         )
 
     def below_cut(self, pts: FloatArray, widths: FloatArray, *, margin: float = 0.01) -> BoolArray:
@@ -316,9 +333,9 @@ class CueImage:
         h = pts @ self.floor_normal + self.floor_offset
         return h + widths < self.min_height + margin
 
-    def observed_at(self, pts: FloatArray) -> tuple[BoolArray, F32]:
-        """``(inside, obs)`` for camera-frame points ``(..., 3)``: whether each projects into the cue
-        image (in front of the camera), and the observed depth at its pixel (0 = background/outside)."""
+    def _pixels(self, pts: FloatArray) -> tuple[BoolArray, NDArray[np.intp]]:
+        """``(inside, index)`` for camera-frame points ``(..., 3)``: whether each projects into the cue image
+        (in front of the camera), and its row-major pixel index (0 outside)."""
         intr = self.intrinsics
         z = pts[..., 2]
         with np.errstate(divide="ignore", invalid="ignore"):
@@ -338,18 +355,35 @@ class CueImage:
         # row-major pixel index (exact in float64), 0 outside; one flat gather instead of a 2D one
         v *= intr.width
         v += u
-        obs = np.take(self.depth, np.where(inside, v, 0).astype(np.intp))
-        return inside, np.where(inside, obs, np.float32(0.0))
+        return inside, np.where(inside, v, 0).astype(np.intp)
+
+    def observed_at(self, pts: FloatArray) -> tuple[BoolArray, F32]:
+        """``(inside, obs)`` for camera-frame points ``(..., 3)``: whether each projects into the cue
+        image (in front of the camera), and the observed depth at its pixel (0 = background/outside)."""
+        inside, idx = self._pixels(pts)
+        return inside, np.where(inside, np.take(self.depth, idx), np.float32(0.0))
+
+    def unknown_at(self, pts: FloatArray) -> BoolArray:
+        """``(...)`` True where camera-frame points project onto a pixel without a depth measurement."""
+        if self.unknown is None:
+            return np.zeros(np.shape(pts)[:-1], dtype=bool)
+        inside, idx = self._pixels(pts)
+        return inside & np.take(self.unknown, idx)
 
     def occluded(self, pts: FloatArray, widths: FloatArray, *, tol: float) -> BoolArray:
-        """``(...)`` True where camera-frame skeleton points are out of the image or hidden.
+        """``(...)`` True where camera-frame skeleton points are out of the image, hidden, or over a
+        pixel without a depth measurement (``unknown``).
 
         Hidden: the observed depth at the point's pixel is smaller than the model's front
         surface ``z - width`` by more than ``tol`` (something observed is in front of it).
         """
-        inside, obs = self.observed_at(pts)
-        hidden = (obs > 0) & (obs < pts[..., 2] - widths - tol)
-        return ~inside | hidden
+        inside, idx = self._pixels(pts)
+        obs = np.where(inside, np.take(self.depth, idx), np.float32(0.0))
+        out = (obs > 0) & (obs < pts[..., 2] - widths - tol)  # hidden
+        out |= ~inside
+        if self.unknown is not None:
+            out |= np.take(self.unknown, idx) & inside
+        return out
 
 
 def project_bbox(
@@ -608,6 +642,9 @@ def log_likelihood_2d(
     assert bbox is not None
     v0, v1, u0, u1 = bbox
     obs = cue.depth[v0:v1, u0:u1].ravel()
+    # pixels without a depth measurement cost nothing: their costs are taken back out of each particle's sum
+    # (a gather over those pixels, cheaper than masking every pixel when they are a minority)
+    unknown = None if cue.unknown is None else np.flatnonzero(cue.unknown[v0:v1, u0:u1].ravel())
     total = float(cue.intrinsics.width * cue.intrinsics.height)
     out = np.empty(p)
     for c0 in range(0, p, chunk):
@@ -625,7 +662,10 @@ def log_likelihood_2d(
         if ref_render is not None:
             np.minimum(model, ref_render[None, :], out=model)
         cost = depth_costs(model, obs, params=params, overwrite=True, work=work)
-        out[sl] = cost.sum(axis=1, dtype=np.float64) / total
+        d2 = cost.sum(axis=1, dtype=np.float64)
+        if unknown is not None and unknown.size:
+            d2 -= np.take(cost, unknown, axis=1).sum(axis=1, dtype=np.float64)
+        out[sl] = d2 / total
     return -params.lam * out
 
 

@@ -1241,6 +1241,10 @@ class Segmentation:
     """Foreground pixels (= ``len(points)``)."""
     roi_shift: float = 0.0
     """Lateral shift (m, walker +y) of the ROI box used for this frame's successor (auto-centring)."""
+    no_depth: BoolArray | None = None
+    """``(H, W)`` bool, True = no depth measured in ``[min_range, max_range]`` (nearer than the sensor's near
+    limit, IR shadow, dropouts): unknown, neither foreground nor background (None for frames with no
+    foreground)."""
 
     def foreground_depth(self, depth_m: NDArray[np.floating]) -> F32:
         """Copy of ``depth_m`` (float32, m) with NaN outside the foreground mask."""
@@ -1488,6 +1492,7 @@ class Segmenter:
             n_thin=n_thin,
             n_foreground=n_fg,
             roi_shift=self.roi_shift,
+            no_depth=~valid,
         )
 
     def _follow_legs(self, mask: BoolArray, yw: F32, h: F32, z: F32) -> None:

@@ -188,6 +188,7 @@ class TrackerConfig:
     # occlusion / hidden parts
     occlusion_aware: bool = False  # occlusion-aware cues (see likelihood module)
     hidden_parts: bool = False  # VISIBLE/HIDDEN state machine per segment
+    no_depth_unknown: bool = False  # pixels without a depth measurement (nearer than the sensor's near limit, IR shadow, dropouts) are unknown to both cues and to the visibility test, not background: a leg there costs nothing (false: background, paper)
     hide_below: float = 0.25  # visible fraction under which a segment becomes HIDDEN
     show_above: float = 0.5  # visible fraction over which a HIDDEN segment is VISIBLE again
     reappear_noise_gain: float = 2.0  # noise gain on a leg whose segment re-appeared
@@ -327,6 +328,7 @@ DEFAULT = TrackerConfig(
     truncate_2d=0.5,
     occlusion_aware=True,
     hidden_parts=True,
+    no_depth_unknown=True,
     partitioned=True,
     n_layers=2,
     root_layers=2,
@@ -408,6 +410,7 @@ class _Frame:
     fg: FloatArray  # (N, 3) sub-sampled foreground, camera frame
     fg_all_body: FloatArray  # (M, 3) all foreground points, body frame
     cue: CueImage
+    no_depth: BoolArray | None = None  # (H, W) pixels without a depth measurement (when they count as unknown)
 
 
 @dataclass
@@ -576,12 +579,14 @@ class LegTracker:
         points: NDArray[np.floating],
         depth_fg: NDArray[np.floating],
         floor: FloorPlane,
+        no_depth: NDArray[np.bool_] | None = None,
     ) -> LegPose:
         """Track one frame.
 
         ``points``: ``(N, 3)`` foreground points, camera optical frame (m);
         ``depth_fg``: ``(H, W)`` foreground depth (m), NaN elsewhere, same size as the intrinsics;
-        ``floor``: floor plane in the camera frame.  Returns the pose in the camera frame.  A frame without a
+        ``floor``: floor plane in the camera frame; ``no_depth``: ``(H, W)`` bool, pixels without a depth
+        measurement (None: every pixel that is not foreground is background).  Returns the pose in the camera frame.  A frame without a
         valid floor is treated like one without foreground: a track coasts through up to ``coast_frames`` of
         them (DEGRADED, confidence 0), then the pose is NO_USER until the floor is back.
         """
@@ -592,6 +597,10 @@ class LegTracker:
         if depth.shape != (self.intrinsics.height, self.intrinsics.width):
             msg = f"depth_fg shape {depth.shape} does not match the intrinsics {self.intrinsics.height}x{self.intrinsics.width}"
             raise TrackerInputError(msg)
+        if no_depth is not None:
+            no_depth = np.asarray(no_depth, dtype=bool)
+            if no_depth.shape != depth.shape:
+                raise TrackerInputError(f"no_depth shape {no_depth.shape} does not match depth_fg {depth.shape}")
         pts = pts[np.all(np.isfinite(pts), axis=1)]
         cfg = self.config
         # no floor in this frame (not found yet, or hidden by the user or something in front of the lens): there
@@ -617,7 +626,7 @@ class LegTracker:
             return self._empty_pose(stamp)
         self._coasted = 0
 
-        frame = self._prepare(pts, depth, floor)
+        frame = self._prepare(pts, depth, floor, no_depth if cfg.no_depth_unknown else None)
         self._stamp = float(stamp)
         searching = False
         if self._x is None and self._fresh and cfg.single_leg_wait_s > 0:
@@ -696,7 +705,8 @@ class LegTracker:
             ess=float("nan"),
         )
 
-    def _prepare(self, pts: FloatArray, depth: NDArray[np.floating], floor: FloorPlane) -> _Frame:
+    def _prepare(self, pts: FloatArray, depth: NDArray[np.floating], floor: FloorPlane,
+                 no_depth: NDArray[np.bool_] | None = None) -> _Frame:
         cfg = self.config
         body = BodyFrame.from_floor(floor, mounting=self.mounting)
         n = pts.shape[0]
@@ -706,9 +716,10 @@ class LegTracker:
         k = min(k, n)
         idx = self.rng.choice(n, size=k, replace=False) if k < n else np.arange(n)
         cue = CueImage.from_depth(
-            depth, intrinsics=self.intrinsics, stride=cfg.cue2d_stride, floor=floor, min_height=cfg.fg_min_height
+            depth, intrinsics=self.intrinsics, stride=cfg.cue2d_stride, floor=floor, min_height=cfg.fg_min_height,
+            unknown=no_depth,
         )
-        return _Frame(body=body, fg=pts[np.sort(idx)], fg_all_body=body.to_body(pts), cue=cue)
+        return _Frame(body=body, fg=pts[np.sort(idx)], fg_all_body=body.to_body(pts), cue=cue, no_depth=no_depth)
 
     # -- likelihood -------------------------------------------------------------
     def _cam_segments(
@@ -1092,7 +1103,7 @@ class LegTracker:
             # a shoe cut by the image's border ends there, not at its toe box: along the foot the model's toe stays;
             # across it, what is left of the shoe still gives its centre line
             in_view = toes_in_view(frame.body.to_camera(pts_body), frame.body.to_camera(toes),
-                                   intrinsics=self.intrinsics, fit=self._toe_fit)
+                                   intrinsics=self.intrinsics, fit=self._toe_fit, no_depth=frame.no_depth)
             pts_body = pts_body.copy()
             pts_body[:, TOE] = across_only(pts_body, toes, ~in_view)
         pose = LegPose(
@@ -1125,6 +1136,8 @@ class LegTracker:
         inside, obs = cue.observed_at(pts)
         seen = inside & (obs > 0) & (obs >= pts[..., 2] - wd - 0.05)
         counted = ~cue.below_cut(pts, wd) if cue.min_height > 0 else np.ones_like(seen)
+        if cue.unknown is not None:  # nothing was measured there: neither seen nor hidden
+            counted &= ~cue.unknown_at(pts)
         n = counted.sum(axis=1)
         vis = np.where(n > 0, (seen & counted).sum(axis=1) / np.maximum(n, 1), 0.0)
         # A segment nobody can see is either hidden (observed surface in front of it: the other leg, an

@@ -234,7 +234,7 @@ class FloorSegmentationNode(WalkerNode):
                 "says NO_USER); if the camera is mounted rolled or upside down, set floor.up_hint (the floor's up "
                 "direction in the camera frame, default [0.0, -1.0, 0.0]; upside down: [0.0, 1.0, 0.0])")
         self.pub_floor(M.make_floor_plane(seg.floor, header))
-        self.pub_mask(M.make_image(seg.mask.astype(np.uint8) * 255, header, encoding="mono8"))
+        self.pub_mask(M.make_foreground_mask(seg.mask, seg.no_depth, header))
         self.pub_fg(M.make_pointcloud2(seg.points, header))
         self.frames_ok += 1
 
@@ -324,6 +324,7 @@ class LegTrackerNode(WalkerNode):
     def track(self, parts: dict[str, Any]) -> None:
         header = parts["points"].header
         mask = M.image_to_mask(parts["mask"])
+        no_depth = M.image_to_no_depth(parts["mask"])
         points = M.read_pointcloud2(parts["points"])
         if points.ndim == 3:
             points = points.reshape(-1, 3)
@@ -331,7 +332,8 @@ class LegTrackerNode(WalkerNode):
         if len(points) == int(mask.sum()):
             depth_fg[mask] = points[:, 2]
         floor = M.floor_from_msg(parts["floor"])
-        pose = self.tracker.update(stamp=M.stamp_to_s(header.stamp), points=points, depth_fg=depth_fg, floor=floor)
+        pose = self.tracker.update(stamp=M.stamp_to_s(header.stamp), points=points, depth_fg=depth_fg, floor=floor,
+                                   no_depth=no_depth)
         self.pub_joints(M.make_joint_state(pose, header))
         self.pub_track(M.make_leg_track(pose, header, particle_count=int(getattr(self.config, "n_particles", 0))))
         self.pub_markers(M.make_markers(pose, header))
