@@ -308,14 +308,44 @@ def test_segmentation_output_contract() -> None:
     assert np.count_nonzero(a.mask != b.mask) <= 5
     fg = a.foreground_depth(depth)
     assert np.all(np.isnan(fg[~a.mask])) and np.array_equal(fg[a.mask], depth[a.mask])
-    # pixels without a measurement in the configured range are unknown, never foreground
+    # pixels without a measurement in the configured range are unknown, never foreground (every one of them, with
+    # no memory of earlier frames)
     near = depth.copy()
     near[:40] = 0.1  # nearer than min_range (0.2 m)
-    d = Segmenter(cfg, rng=np.random.default_rng(0), intrinsics=KINECT_INTRINSICS).process(near, PROJ.points(near))
+    d = Segmenter(replace(cfg, no_depth_frames=0), rng=np.random.default_rng(0),
+                  intrinsics=KINECT_INTRINSICS).process(near, PROJ.points(near))
     assert d.no_depth is not None and d.no_depth.shape == depth.shape and d.no_depth.dtype == bool
     np.testing.assert_array_equal(d.no_depth, ~np.isfinite(near) | (near < cfg.min_range) | (near > cfg.max_range))
     assert d.no_depth[:40].all() and np.isnan(depth).any() and d.no_depth[np.isnan(depth)].all()
     assert not (d.no_depth & d.mask).any()
+
+
+def test_depth_missing_for_a_moment_is_unknown_missing_for_long_is_background() -> None:
+    """A leg passing in front of the lens leaves a hole for a fraction of a second: unknown.  The walker's own parts
+    nearer than the sensor reaches never have depth: background, as pixels showing nothing of interest."""
+    rng = np.random.default_rng(6)
+    depth = noisy_depth(make_synthetic_scene(), rng)
+    depth[:, :20] = np.nan  # a walker part in front of the lens, in every frame
+    seg = Segmenter(SegmenterConfig(min_part_width=0.0), rng=np.random.default_rng(0), intrinsics=KINECT_INTRINSICS)
+    pts = PROJ.points(depth)
+    first = seg.process(depth, pts)
+    assert first.no_depth is not None and not first.no_depth[:, :20].any()  # missing from the start: persistent
+    for _ in range(10):
+        seg.process(depth, pts)
+    hole = depth.copy()
+    hole[200:300, 300:400] = np.nan  # a leg nearer than the sensor reaches
+    new = np.isfinite(depth) & np.isnan(hole)  # (the scene's own speckle there is missing in every frame)
+    assert new.sum() > 9000
+    res = seg.process(hole, PROJ.points(hole))
+    assert res.no_depth is not None and res.no_depth[new].all() and not res.no_depth[:, :20].any()
+    frames = 1
+    while res.no_depth[new].any():  # a hole that stays becomes background too
+        res = seg.process(hole, PROJ.points(hole))
+        frames += 1
+    cfg = seg.config
+    assert frames == math.ceil(math.log(1.0 - cfg.no_depth_persistent) / math.log(1.0 - 1.0 / cfg.no_depth_frames))
+    with pytest.raises(ValueError, match="no_depth_persistent"):
+        SegmenterConfig(no_depth_persistent=0.0).validate()
 
 
 def test_thin_parts_drops_tubes_keeps_legs() -> None:

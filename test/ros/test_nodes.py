@@ -224,7 +224,7 @@ def test_floor_segmentation_node_handles_all_invalid_and_good_clouds(rclpy_conte
                       M.serialize(M.make_pointcloud2(np.zeros((5, 3), np.float32), M.make_header(1.0, "cam"))))
         assert node.problems  # unorganised cloud counted
         d = good_depth()
-        d[:3] = 0  # no depth measured in the top rows
+        d[:3] = 0  # no depth measured in the top rows, in every frame
         depth = decode_depth(d.tobytes(), encoding="16UC1", width=64, height=48, step=128, is_bigendian=False)
         for i in range(3):
             node.dispatch("points", M.POINT_CLOUD2, node.on_cloud,
@@ -236,10 +236,16 @@ def test_floor_segmentation_node_handles_all_invalid_and_good_clouds(rclpy_conte
         mask = M.image_to_mask(out["mask"][-1])
         assert mask[12:25, 27:33].mean() > 0.9  # the box (above the floor) is foreground
         assert mask[45:, :].mean() < 0.02  # the floor is not
-        # pixels without depth are marked as such for the tracker (unknown, not background)
+        # a hole that opens in the box (nearer than the sensor reaches) is marked as such for the tracker: unknown,
+        # not background; the top rows, missing in every frame, are not
+        d[15:20, 28:32] = 0
+        holed = decode_depth(d.tobytes(), encoding="16UC1", width=64, height=48, step=128, is_bigendian=False)
+        node.dispatch("points", M.POINT_CLOUD2, node.on_cloud,
+                      M.serialize(M.make_pointcloud2(proj.points(holed), M.make_header(5.0, "cam"))))
         no_depth = M.image_to_no_depth(out["mask"][-1])
-        assert no_depth[:3].all() and not no_depth[3:].any()
-        np.testing.assert_array_equal(no_depth, ~np.isfinite(depth) | (depth < 0.2) | (depth > 8.0))
+        expected = np.zeros_like(no_depth)
+        expected[15:20, 28:32] = True
+        np.testing.assert_array_equal(no_depth, expected)
     finally:
         node.destroy_node()
 

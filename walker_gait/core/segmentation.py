@@ -1170,6 +1170,13 @@ class SegmenterConfig:
     """Depths nearer than this (m) are ignored."""
     max_range: float = 8.0
     """Depths farther than this (m) are ignored."""
+    no_depth_frames: int = 30
+    """Pixels without depth in most of about this many recent frames (an exponential average, see
+    ``no_depth_persistent``) are background, not unknown, in ``Segmentation.no_depth``: the walker's own
+    parts nearer than the sensor reaches, a dead image border; a leg passing in front of the lens leaves a hole
+    for a fraction of a second (0 = every pixel without depth is unknown)."""
+    no_depth_persistent: float = 0.9
+    """Average share of recent frames without depth over which a pixel's missing depth is persistent."""
     background_threshold: float = 0.02
     """Background subtraction threshold at zero range (m)."""
     background_threshold_per_m2: float = 0.0092
@@ -1198,6 +1205,10 @@ class SegmenterConfig:
             raise ValueError(f"floor_method must be one of {FLOOR_METHODS}, got {self.floor_method!r}")
         if not (0 <= self.min_range < self.max_range):
             raise ValueError(f"need 0 <= min_range < max_range, got {self.min_range}, {self.max_range}")
+        if self.no_depth_frames < 0:
+            raise ValueError(f"no_depth_frames must be >= 0, got {self.no_depth_frames}")
+        if not (0.0 < self.no_depth_persistent <= 1.0):
+            raise ValueError(f"no_depth_persistent must be in (0, 1], got {self.no_depth_persistent}")
         if self.background_threshold < 0 or self.background_threshold_per_m2 < 0:
             raise ValueError("background thresholds must be >= 0")
         if self.background_frames < 1:
@@ -1242,9 +1253,10 @@ class Segmentation:
     roi_shift: float = 0.0
     """Lateral shift (m, walker +y) of the ROI box used for this frame's successor (auto-centring)."""
     no_depth: BoolArray | None = None
-    """``(H, W)`` bool, True = no depth measured in ``[min_range, max_range]`` (nearer than the sensor's near
-    limit, IR shadow, dropouts): unknown, neither foreground nor background (None for frames with no
-    foreground)."""
+    """``(H, W)`` bool, True = no depth measured in ``[min_range, max_range]`` in this frame (a leg nearer than
+    the sensor's near limit, IR shadow, dropouts) and not persistently missing (``no_depth_frames``: the walker's
+    own parts in front of the lens are background): unknown, neither foreground nor background (None for frames
+    with no foreground)."""
 
     def foreground_depth(self, depth_m: NDArray[np.floating]) -> F32:
         """Copy of ``depth_m`` (float32, m) with NaN outside the foreground mask."""
@@ -1301,6 +1313,7 @@ class Segmenter:
         self.roi_shift = 0.0
         """Current lateral shift (m, walker +y) of the ROI box (auto-centring)."""
         self._no_legs = False  # the last frame's foreground showed no legs (`StaticMaskConfig.learn_without_legs`)
+        self._no_depth_rate: F32 | None = None  # per pixel, the recent share of frames without depth
         self.frames = 0
         self.empty_frames = 0
 
@@ -1380,6 +1393,9 @@ class Segmenter:
         valid = z >= cfg.min_range  # NaN -> False
         valid &= z <= cfg.max_range
         n_valid = int(np.count_nonzero(valid))
+        # (a frame without any depth, a blank start-up frame or the lens covered, says nothing of which pixels never
+        # have depth, and has no foreground to go with it)
+        no_depth = self._transient_no_depth(valid) if n_valid else None
 
         floor = self.floor_tracker.update(points)
 
@@ -1492,8 +1508,24 @@ class Segmenter:
             n_thin=n_thin,
             n_foreground=n_fg,
             roi_shift=self.roi_shift,
-            no_depth=~valid,
+            no_depth=no_depth,
         )
+
+    def _transient_no_depth(self, valid: BoolArray) -> BoolArray:
+        """Pixels without depth in this frame whose depth is not persistently missing (``no_depth_frames``); the
+        first frame with depth starts the average."""
+        cfg = self.config
+        missing = ~valid
+        if cfg.no_depth_frames <= 0:
+            return missing
+        rate = self._no_depth_rate
+        if rate is None or rate.shape != missing.shape:
+            self._no_depth_rate = rate = missing.astype(np.float32)
+        else:
+            gain = np.float32(1.0 / cfg.no_depth_frames)
+            rate *= np.float32(1.0) - gain
+            rate += gain * missing
+        return missing & (rate < np.float32(cfg.no_depth_persistent))
 
     def _follow_legs(self, mask: BoolArray, yw: F32, h: F32, z: F32) -> None:
         """Auto-centring: move the box sideways towards the lateral centre of the legs, measured on ``mask``
