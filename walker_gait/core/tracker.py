@@ -586,9 +586,9 @@ class LegTracker:
         ``points``: ``(N, 3)`` foreground points, camera optical frame (m);
         ``depth_fg``: ``(H, W)`` foreground depth (m), NaN elsewhere, same size as the intrinsics;
         ``floor``: floor plane in the camera frame; ``no_depth``: ``(H, W)`` bool, pixels without a depth
-        measurement (None: every pixel that is not foreground is background).  Returns the pose in the camera frame.  A frame without a
-        valid floor is treated like one without foreground: a track coasts through up to ``coast_frames`` of
-        them (DEGRADED, confidence 0), then the pose is NO_USER until the floor is back.
+        measurement (None: every pixel that is not foreground is background).  Returns the pose in the camera
+        frame.  A frame without a valid floor is treated like one without foreground: a track coasts through up
+        to ``coast_frames`` of them (DEGRADED, confidence 0), then the pose is NO_USER until the floor is back.
         """
         pts = np.asarray(points, dtype=np.float64)
         if pts.ndim != 2 or pts.shape[1] != 3:
