@@ -1255,8 +1255,8 @@ class Segmentation:
     no_depth: BoolArray | None = None
     """``(H, W)`` bool, True = no depth measured in ``[min_range, max_range]`` in this frame (a leg nearer than
     the sensor's near limit, IR shadow, dropouts) and not persistently missing (``no_depth_frames``: the walker's
-    own parts in front of the lens are background): unknown, neither foreground nor background (None for frames
-    with no foreground)."""
+    own parts in front of the lens are background): unknown, neither foreground nor background (None in the
+    empty results: no depth at all, no floor, background still being learned)."""
 
     def foreground_depth(self, depth_m: NDArray[np.floating]) -> F32:
         """Copy of ``depth_m`` (float32, m) with NaN outside the foreground mask."""
