@@ -357,18 +357,23 @@ class CueImage:
         v += u
         return inside, np.where(inside, v, 0).astype(np.intp)
 
+    def sample(self, pts: FloatArray) -> tuple[BoolArray, F32, BoolArray]:
+        """``(inside, obs, unknown)`` for camera-frame points ``(..., 3)``: whether each projects into the cue
+        image (in front of the camera), the observed depth at its pixel (0 = background/outside), and whether
+        that pixel has no depth measurement (see the class)."""
+        inside, idx = self._pixels(pts)
+        obs = np.where(inside, np.take(self.depth, idx), np.float32(0.0))
+        unknown = inside & np.take(self.unknown, idx) if self.unknown is not None else np.zeros_like(inside)
+        return inside, obs, unknown
+
     def observed_at(self, pts: FloatArray) -> tuple[BoolArray, F32]:
-        """``(inside, obs)`` for camera-frame points ``(..., 3)``: whether each projects into the cue
-        image (in front of the camera), and the observed depth at its pixel (0 = background/outside)."""
+        """``(inside, obs)`` of :meth:`sample`."""
         inside, idx = self._pixels(pts)
         return inside, np.where(inside, np.take(self.depth, idx), np.float32(0.0))
 
     def unknown_at(self, pts: FloatArray) -> BoolArray:
         """``(...)`` True where camera-frame points project onto a pixel without a depth measurement."""
-        if self.unknown is None:
-            return np.zeros(np.shape(pts)[:-1], dtype=bool)
-        inside, idx = self._pixels(pts)
-        return inside & np.take(self.unknown, idx)
+        return self.sample(pts)[2]
 
     def occluded(self, pts: FloatArray, widths: FloatArray, *, tol: float) -> BoolArray:
         """``(...)`` True where camera-frame skeleton points are out of the image, hidden, or over a
@@ -377,12 +382,10 @@ class CueImage:
         Hidden: the observed depth at the point's pixel is smaller than the model's front
         surface ``z - width`` by more than ``tol`` (something observed is in front of it).
         """
-        inside, idx = self._pixels(pts)
-        obs = np.where(inside, np.take(self.depth, idx), np.float32(0.0))
+        inside, obs, unknown = self.sample(pts)
         out = (obs > 0) & (obs < pts[..., 2] - widths - tol)  # hidden
         out |= ~inside
-        if self.unknown is not None:
-            out |= np.take(self.unknown, idx) & inside
+        out |= unknown
         return out
 
 

@@ -1133,11 +1133,10 @@ class LegTracker:
         cue = frame.cue
         pts, wd = skeleton_points(seg_c, rad, n=_VIS_POINTS)  # (1, 6, K, 3), (1, 6, K)
         pts, wd = pts[0], wd[0]
-        inside, obs = cue.observed_at(pts)
+        inside, obs, unknown = cue.sample(pts)
         seen = inside & (obs > 0) & (obs >= pts[..., 2] - wd - 0.05)
         counted = ~cue.below_cut(pts, wd) if cue.min_height > 0 else np.ones_like(seen)
-        if cue.unknown is not None:  # nothing was measured there: neither seen nor hidden
-            counted &= ~cue.unknown_at(pts)
+        counted &= ~unknown  # nothing was measured there: neither seen nor hidden
         n = counted.sum(axis=1)
         vis = np.where(n > 0, (seen & counted).sum(axis=1) / np.maximum(n, 1), 0.0)
         # A segment nobody can see is either hidden (observed surface in front of it: the other leg, an
