@@ -414,12 +414,12 @@ def test_skeleton_points_over_pixels_without_depth_count_as_occluded(frame) -> N
     as_background = CueImage.from_depth(depth, intrinsics=KINECT, stride=4, floor=FLOOR)
     as_unknown = CueImage.from_depth(depth, intrinsics=KINECT, stride=4, floor=FLOOR, unknown=hole)
     lower_left = pts[0, 1:3].reshape(-1, 3)
-    over = as_unknown.unknown_at(lower_left)
+    over = as_unknown.sample(lower_left)[2]
     assert over.mean() > 0.5
     assert not as_background.occluded(lower_left, w[0, 1:3].ravel(), tol=0.04)[over].any()
     assert as_unknown.occluded(lower_left, w[0, 1:3].ravel(), tol=0.04)[over].all()
     # the right leg, measured, is not affected
-    assert not as_unknown.unknown_at(pts[0, 3:].reshape(-1, 3)).any()
+    assert not as_unknown.sample(pts[0, 3:].reshape(-1, 3))[2].any()
     # a pixel whose foreground depth was measured is never unknown, whatever the mask says
     everywhere = CueImage.from_depth(frame.depth, intrinsics=KINECT, stride=4, floor=FLOOR,
                                      unknown=np.ones_like(hole))

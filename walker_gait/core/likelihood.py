@@ -299,6 +299,7 @@ class CueImage:
             pad = np.full((intr.height, intr.width), np.nan, np.float32)
             pad[: sub.shape[0], : sub.shape[1]] = sub
             sub = pad
+        measured = np.isfinite(sub) & (sub > 0)
         unk = None
         if unknown is not None:
             if unknown.shape != depth_fg.shape:
@@ -306,10 +307,10 @@ class CueImage:
             cut = np.asarray(unknown, dtype=bool)[off::stride, off::stride][: intr.height, : intr.width]
             unk = np.zeros((intr.height, intr.width), dtype=bool)
             unk[: cut.shape[0], : cut.shape[1]] = cut
-            unk &= ~(np.isfinite(sub) & (sub > 0))  # a foreground pixel was measured
+            unk &= ~measured  # a foreground pixel was measured
             if not unk.any():
                 unk = None
-        depth = np.where(np.isfinite(sub) & (sub > 0), sub, 0.0).astype(np.float32)
+        depth = np.where(measured, sub, 0.0).astype(np.float32)
         u = (np.arange(intr.width, dtype=np.float64) - intr.cx) / intr.fx
         v = (np.arange(intr.height, dtype=np.float64) - intr.cy) / intr.fy
         nrm = np.asarray(floor.normal, dtype=np.float64)
@@ -365,15 +366,6 @@ class CueImage:
         obs = np.where(inside, np.take(self.depth, idx), np.float32(0.0))
         unknown = inside & np.take(self.unknown, idx) if self.unknown is not None else np.zeros_like(inside)
         return inside, obs, unknown
-
-    def observed_at(self, pts: FloatArray) -> tuple[BoolArray, F32]:
-        """``(inside, obs)`` of :meth:`sample`."""
-        inside, idx = self._pixels(pts)
-        return inside, np.where(inside, np.take(self.depth, idx), np.float32(0.0))
-
-    def unknown_at(self, pts: FloatArray) -> BoolArray:
-        """``(...)`` True where camera-frame points project onto a pixel without a depth measurement."""
-        return self.sample(pts)[2]
 
     def occluded(self, pts: FloatArray, widths: FloatArray, *, tol: float) -> BoolArray:
         """``(...)`` True where camera-frame skeleton points are out of the image, hidden, or over a
