@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from walker_gait.bench.tracker import KINECT, render_frame
+from walker_gait.core import kernels
 from walker_gait.core import leg_model as lm
 from walker_gait.core.leg_model import BodyFrame, StateLayout as L
 from walker_gait.core.likelihood import (
@@ -16,6 +17,7 @@ from walker_gait.core.likelihood import (
     CueImage,
     Workspace,
     _pairwise_distances,
+    _surface_costs,
     combine_log_likelihoods,
     depth_costs,
     elliptic_section_radii,
@@ -57,6 +59,21 @@ def _perturbed() -> np.ndarray:
     x[3, L.LEFT.start + L.HIP_FLEX] -= 0.3
     x[4, L.RIGHT.start + L.KNEE_FLEX] += 0.4
     return lm.enforce_constraints(x)[0]
+
+
+@pytest.fixture(params=["numpy", "compiled"])
+def backend(request, monkeypatch) -> str:  # noqa: ANN001
+    """Run a test with the likelihood's numpy code and with its compiled (numba) kernels.
+
+    numba is a pinned dependency (requirements.txt), so the compiled case imports it directly: it fails, not
+    skips, where numba is missing."""
+    if request.param == "numpy":
+        monkeypatch.setattr(kernels, "compiled", lambda: None)
+    else:
+        from walker_gait.core import _jit
+
+        monkeypatch.setattr(kernels, "compiled", lambda: _jit)
+    return str(request.param)
 
 
 def test_paper_lambdas_in_si() -> None:
@@ -239,7 +256,7 @@ def _degenerate_particles() -> tuple[np.ndarray, np.ndarray]:
     return seg, rad
 
 
-def test_render_depth_matches_reference(frame) -> None:  # noqa: ANN001
+def test_render_depth_matches_reference(frame, backend) -> None:  # noqa: ANN001
     seg, rad = _degenerate_particles()
     clip = np.array([False, False, True] * 2)
     for stride in (4, 10):
@@ -306,7 +323,7 @@ def test_pairwise_distances_match_reference(frame) -> None:  # noqa: ANN001
     np.testing.assert_array_equal(_pairwise_distances(model, fg, fg_sq, work=Workspace()), ref)
 
 
-def test_skeleton_points_and_3d_cue_match_reference(frame) -> None:  # noqa: ANN001
+def test_skeleton_points_and_3d_cue_match_reference(frame, backend) -> None:  # noqa: ANN001
     seg, rad = _cam(_perturbed())
     pts, w = skeleton_points(seg, rad, n=6)
     t = np.linspace(0.0, 1.0, 8)
@@ -314,13 +331,61 @@ def test_skeleton_points_and_3d_cue_match_reference(frame) -> None:  # noqa: ANN
     np.testing.assert_array_equal(pts, ref_pts)
     assert pts.flags.c_contiguous
     fg = frame.points[np.random.default_rng(2).choice(len(frame.points), 100, replace=False)]
-    fg32 = fg.astype(np.float32)
-    d = _pairwise_distances(pts.reshape(5, -1, 3).astype(np.float32), fg32, np.einsum("ij,ij->i", fg32, fg32))
-    w32 = w.reshape(5, -1).astype(np.float32)
-    d_mf = np.abs(d.min(axis=2) - w32).sum(axis=1) / np.full(5, w32.shape[1])  # (integer counts)
-    d_fm = np.abs(d - w32[:, :, None]).min(axis=1).mean(axis=1)
-    ref = -PAPER_LAMBDA_3D * (0.5 * (d_fm + d_mf)).astype(np.float64)
-    np.testing.assert_array_equal(log_likelihood_3d(seg, rad, fg=fg, params=Cue3DParams(n_skeleton=6)), ref)
+    # eq. 4-7 in float64 with the distances taken directly
+    pts32, fg32 = pts.reshape(5, -1, 3).astype(np.float32), fg.astype(np.float32)
+    d = np.linalg.norm(pts32[:, :, None, :].astype(np.float64) - fg32[None, None].astype(np.float64), axis=-1)
+    w64 = w.reshape(5, -1).astype(np.float32).astype(np.float64)
+    d_mf = np.abs(d.min(axis=2) - w64).mean(axis=1)
+    d_fm = np.abs(d - w64[:, :, None]).min(axis=1).mean(axis=1)
+    ref = -PAPER_LAMBDA_3D * 0.5 * (d_fm + d_mf)
+    got = log_likelihood_3d(seg, rad, fg=fg, params=Cue3DParams(n_skeleton=6))
+    # float32 distances: within 1e-4 log units of the float64 ones (costs of several log units)
+    np.testing.assert_allclose(got, ref, rtol=0, atol=1e-4)
+    assert np.all(np.diff(np.argsort(got)) != 0) and np.array_equal(np.argsort(got), np.argsort(ref))
+
+
+def test_surface_costs_of_both_backends_agree_with_direct_distances(frame) -> None:  # noqa: ANN001
+    from walker_gait.core import _jit
+
+    rng = np.random.default_rng(5)
+    seg, rad = _cam(_perturbed())
+    pts, w = skeleton_points(seg, rad, n=6)
+    model = pts.reshape(5, -1, 3).astype(np.float32)
+    widths = w.reshape(5, -1).astype(np.float32)
+    fg = frame.points[rng.choice(len(frame.points), 300, replace=False)].astype(np.float32)
+    fg = np.concatenate([fg, model[0, :3], model[3, -2:]])  # foreground points on model points: distance 0
+    d = np.linalg.norm(model[:, :, None, :].astype(np.float64) - fg[None, None].astype(np.float64), axis=-1)
+    ref_row, ref_fm = d.min(axis=2), np.abs(d - widths[:, :, None]).min(axis=1)
+    assert (ref_row == 0).sum() >= 5
+    results = {}
+    for name, jit in (("numpy", None), ("compiled", _jit)):
+        with pytest.MonkeyPatch.context() as mp:
+            mp.setattr(kernels, "compiled", lambda jit=jit: jit)
+            for work in (None, Workspace()):
+                row, fm = _surface_costs(model, widths, fg, work=work)
+                assert row.dtype == fm.dtype == np.float32 and row.shape == (5, model.shape[1]) and fm.shape == (5, len(fg))
+                results[name] = (row.copy(), fm.copy())
+    # direct float32 distances are within rounding of float64 ones; numpy's |a|^2 - 2ab + |b|^2 within 1e-4 m
+    for name, tol in (("compiled", 2e-6), ("numpy", 1e-4)):
+        row, fm = results[name]
+        np.testing.assert_allclose(row, ref_row, rtol=0, atol=tol)
+        np.testing.assert_allclose(fm, ref_fm, rtol=0, atol=tol)
+    # the compiled kernel's nearest distances are the float64 reference's within two float32 roundings (a
+    # foreground point on a model point at distance 0 exactly)
+    np.testing.assert_allclose(results["compiled"][0], ref_row, rtol=2.5e-7, atol=0)
+
+
+def test_compiled_kernels_can_be_turned_off(monkeypatch) -> None:  # noqa: ANN001
+    kernels.compiled.cache_clear()
+    try:
+        monkeypatch.setenv(kernels.ENV, "0")
+        assert kernels.compiled() is None
+        kernels.compiled.cache_clear()
+        monkeypatch.setenv(kernels.ENV, "1")
+        assert kernels.compiled() is not None  # numba is a pinned dependency
+    finally:
+        monkeypatch.delenv(kernels.ENV)
+        kernels.compiled.cache_clear()
 
 
 def test_likelihoods_with_workspace_are_identical(frame) -> None:  # noqa: ANN001

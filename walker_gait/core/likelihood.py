@@ -41,6 +41,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from walker_gait.core import kernels
 from walker_gait.core.types import CameraIntrinsics, FloorPlane
 
 FloatArray = NDArray[np.float64]
@@ -156,19 +157,41 @@ def _pairwise_distances(model: F32, fg: F32, fg_sq: F32, *, work: Workspace | No
     return sq.reshape(p, m, -1)
 
 
+def _surface_costs(model: F32, widths: F32, fg: F32, *, work: Workspace | None = None) -> tuple[F32, F32]:
+    """The 3D cue's minima of the distances between model points ``(P, M, 3)`` (radii ``widths`` ``(P, M)``)
+    and foreground points ``fg (N, 3)`` (all float32, finite): ``(row_min (P, M), fm (P, N))`` with
+    ``row_min = min_n ||f_n - m||`` (eq. 5) and ``fm = min_m | ||f_n - m|| - w_m |`` (eq. 4).
+
+    Compiled when numba is available (:mod:`walker_gait.core.kernels`), else numpy.  With ``work`` the results
+    may live in workspace buffers (valid until their next use)."""
+    p, m, _ = model.shape
+    n = fg.shape[0]
+    jit = kernels.compiled()
+    if jit is not None:
+        row_min = _scratch(work, "row_min", (p, m))
+        fm = _scratch(work, "fm", (p, n))
+        fg_t = np.ascontiguousarray(fg.T)
+        jit.surface_costs(np.ascontiguousarray(model), np.ascontiguousarray(widths), fg_t[0], fg_t[1], fg_t[2],
+                          row_min.view(np.int32), fm, _scratch(work, "fm_scratch", (n,)))
+        return row_min, fm
+    d = _pairwise_distances(model, fg, np.einsum("ij,ij->i", fg, fg), work=work)  # (P, M, N)
+    # row minima d.min(axis=2) as a reduceat over the row starts: same values, about twice as fast (no per-row
+    # reduction set-up)
+    row_min = np.minimum.reduceat(d.reshape(-1), np.arange(0, d.size, n)).reshape(p, m) if n else np.full((p, m), np.inf, np.float32)
+    d -= widths[:, :, None]
+    np.abs(d, out=d)
+    return row_min, d.min(axis=1) if m else np.full((p, n), np.inf, np.float32)
+
+
 def foreground_costs(
     segments: FloatArray, radii: FloatArray, *, fg: FloatArray, n: int
 ) -> F32:
     """Per-foreground-point surface costs ``min_m |w_m - ||f - m|| |`` ``(P, N)`` (eq. 4 terms)."""
     pts, w = skeleton_points(segments, radii, n=n)
     p = pts.shape[0]
-    fg32 = np.asarray(fg, dtype=np.float32)
-    d = _pairwise_distances(
-        pts.reshape(p, -1, 3).astype(np.float32), fg32, np.einsum("ij,ij->i", fg32, fg32)
-    )
-    d -= w.reshape(p, -1, 1).astype(np.float32)
-    np.abs(d, out=d)
-    return d.min(axis=1)
+    _, fm = _surface_costs(pts.reshape(p, -1, 3).astype(np.float32), w.reshape(p, -1).astype(np.float32),
+                           np.asarray(fg, dtype=np.float32))
+    return fm
 
 
 @dataclass(frozen=True)
@@ -211,19 +234,10 @@ def log_likelihood_3d(
         return np.zeros(p)
     pts, w = skeleton_points(segments, radii, n=params.n_skeleton)
     k = params.n_skeleton + 2
-    fg32 = np.asarray(fg, dtype=np.float32)
-    d = _pairwise_distances(
-        pts.reshape(p, s * k, 3).astype(np.float32), fg32, np.einsum("ij,ij->i", fg32, fg32), work=work
-    )  # (P, M, N)
     w32 = w.reshape(p, s * k).astype(np.float32)
-    # d_MF (eq. 5); row minima d.min(axis=2) as a reduceat over the row starts: same values, about
-    # twice as fast (no per-row reduction set-up)
-    row_min = np.minimum.reduceat(d.reshape(-1), np.arange(0, d.size, n_fg)).reshape(p, s * k)
-    mf = np.abs(row_min - w32)  # (P, M)
-    # d_FM (eq. 4)
-    d -= w32[:, :, None]
-    np.abs(d, out=d)
-    fm = d.min(axis=1)  # (P, N)
+    row_min, fm = _surface_costs(pts.reshape(p, s * k, 3).astype(np.float32), w32,
+                                 np.asarray(fg, dtype=np.float32), work=work)
+    mf = np.abs(row_min - w32)  # (P, M): d_MF terms (eq. 5); fm (P, N): d_FM terms (eq. 4)
     if ref_fg_costs is not None:
         np.minimum(fm, ref_fg_costs[None, :], out=fm)
     if np.isfinite(params.truncate):
@@ -469,10 +483,17 @@ def render_depth(
             boxes.append((j, sv0, sv1, su0, su1))
     if not boxes:
         return out
+    drad = None if depth_radii is None else np.asarray(depth_radii, dtype=np.float64)
+    jit = kernels.compiled()
+    if jit is not None:
+        clip = np.zeros(s, dtype=np.bool_) if floor_clip is None else np.asarray(floor_clip, dtype=np.bool_)
+        jit.render_boxes(img, v0, u0, np.array(boxes, dtype=np.int64), ax, ay, bx, by, rad, za, zb,
+                         rad if drad is None else drad, fx, clip, cue.ray_up, float(cue.floor_offset),
+                         float(np.float32(max(cue.min_height, 0.0) - 0.005)))
+        return out
     # scratch shared by all segments, sized for the largest segment bbox
     size = p * max((b[2] - b[1]) * (b[4] - b[3]) for b in boxes)
     bufs = [_scratch(work, f"render_{i}", (size,)) for i in range(5)]
-    drad = None if depth_radii is None else np.asarray(depth_radii, dtype=np.float64)
     elliptic = [drad is not None and not np.array_equal(drad[:, j], rad[:, j]) for j in range(s)]
     buf_rd = _scratch(work, "render_rd", (size,)) if any(elliptic) else None
     buf_in = _scratch(work, "render_in", (size,), np.bool_)

@@ -1,0 +1,117 @@
+"""numba kernels of the likelihood; import through :func:`walker_gait.core.kernels.compiled` (needs numba).
+
+Both kernels are compiled with numpy's error model (a division by zero gives inf / NaN as in numpy, and
+leaves the loops free of Python's exception checks, which would stop their vectorisation), without fast-math
+(no reassociation, no fused multiply-add: results do not depend on the CPU's vector width), and release the
+GIL.  Every inner loop runs over a contiguous slice indexed from 0, which lets LLVM vectorise it.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+_F0 = np.float32(0.0)
+_F1 = np.float32(1.0)
+_INF_BITS = np.int32(0x7F800000)  # bit pattern of float32 +inf
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def render_boxes(img, v0, u0, boxes, ax, ay, bx, by, rad, za, zb, drad, fx, clip, ray_up, floor_offset,
+                 threshold):  # pragma: no cover - compiled (tested against the numpy renderer)
+    """z-buffer the capsules of segments ``boxes[:, 0]`` into ``img`` ``(P, h, w)`` (top-left pixel ``(v0, u0)``).
+
+    ``boxes`` ``(B, 5)`` int64 rows ``(segment, v_start, v_stop, u_start, u_stop)``: each segment's pixel box;
+    ``ax, ay, bx, by`` ``(P, S)`` projected end points (px), ``za, zb`` their depths, ``rad`` / ``drad``
+    ``(P, S, 2)`` projected half-widths / depth radii at the ends (float64); ``fx`` focal length; ``clip``
+    ``(S,)`` segments whose surface below the floor (``z * ray_up + floor_offset < threshold``) is dropped.
+    The arithmetic is the numpy renderer's (:func:`walker_gait.core.likelihood.render_depth`), step by step.
+    """
+    n_p = img.shape[0]
+    fx32 = np.float32(fx)
+    off = np.float32(floor_offset)
+    width = 0
+    for b in range(boxes.shape[0]):
+        width = max(width, boxes[b, 4] - boxes[b, 3])
+    tu = np.empty(width, np.float32)
+    pu = np.empty(width, np.float32)
+    for b in range(boxes.shape[0]):
+        j, sv0, sv1, su0, su1 = boxes[b, 0], boxes[b, 1], boxes[b, 2], boxes[b, 3], boxes[b, 4]
+        nu = su1 - su0
+        thr = np.float32(threshold)
+        keep_all = not clip[j]
+        for p in range(n_p):
+            axp, ayp = ax[p, j], ay[p, j]
+            dx, dy = bx[p, j] - axp, by[p, j] - ayp
+            len2 = max(dx * dx + dy * dy, 1e-6)
+            ln = np.sqrt(len2)
+            cu, cv, ku, kv = dx / len2, dy / len2, -dy / ln, dx / ln
+            ln32 = np.float32(ln)
+            ra = np.float32(rad[p, j, 0])
+            dr = np.float32(rad[p, j, 1] - rad[p, j, 0])
+            rd0 = np.float32(drad[p, j, 0])
+            drd = np.float32(drad[p, j, 1] - drad[p, j, 0])
+            z0 = np.float32(za[p, j])
+            dz = np.float32(zb[p, j] - za[p, j])
+            for k in range(nu):
+                du = (su0 + k) - axp
+                tu[k] = np.float32(du * cu)  # along-axis parameter, column term
+                pu[k] = np.float32(du * ku)  # perpendicular distance, column term
+            for v in range(sv0, sv1):
+                dv = v - ayp
+                tv = np.float32(dv * cv)
+                pv = np.float32(dv * kv)
+                row = img[p, v - v0, su0 - u0 : su1 - u0]
+                up = ray_up[v, su0:su1]
+                for k in range(nu):
+                    t_raw = tv + tu[k]
+                    t = t_raw if t_raw > _F0 else _F0
+                    t = t if t < _F1 else _F1
+                    e = (t_raw - t) * ln32  # along-axis excess (px)
+                    d = pv + pu[k]  # perpendicular distance (px)
+                    d2 = d * d
+                    d2 += e * e
+                    r = t * dr + ra
+                    z = t * dz + z0
+                    rho = r * fx32 / z
+                    rho = rho * rho
+                    q = _F1 - d2 / rho
+                    zs = z - np.sqrt(q if q > _F0 else _F0) * (t * drd + rd0)  # front-surface depth
+                    h = zs * up[k] + off
+                    cur = row[k]
+                    row[k] = zs if (q > _F0) & ((h >= thr) | keep_all) & (zs < cur) else cur
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def surface_costs(pts, widths, fgx, fgy, fgz, row_min_bits, fm, scratch):  # pragma: no cover - compiled
+    """The 3D cue's two minima over ``(P, M, N)`` distances, without building them.
+
+    ``pts`` ``(P, M, 3)`` and ``widths`` ``(P, M)`` skeleton points and radii, ``fgx, fgy, fgz`` ``(N,)``
+    foreground coordinates (float32).  Writes ``row_min_bits`` ``(P, M)`` (the float32 bit pattern, as int32,
+    of ``min_n ||f_n - m||``) and ``fm`` ``(P, N)`` (``min_m | ||f_n - m|| - w_m |``); ``scratch`` ``(N,)``
+    float32.  Distances are non-negative, and non-negative floats order as their bit patterns do: the row
+    minimum is an integer minimum, which vectorises (a float one does not without fast-math).
+    """
+    n_p, n_m = widths.shape
+    n = fgx.shape[0]
+    bits = scratch.view(np.int32)
+    for p in range(n_p):
+        f = fm[p]
+        for i in range(n):
+            f[i] = np.inf
+        for m in range(n_m):
+            x, y, z, w = pts[p, m, 0], pts[p, m, 1], pts[p, m, 2], widths[p, m]
+            for i in range(n):
+                a = x - fgx[i]
+                b = y - fgy[i]
+                c = z - fgz[i]
+                d = np.sqrt(a * a + b * b + c * c)
+                scratch[i] = d
+                e = abs(d - w)
+                g = f[i]
+                f[i] = e if e < g else g
+            r = _INF_BITS
+            for i in range(n):
+                s = bits[i]
+                r = s if s < r else r
+            row_min_bits[p, m] = r
