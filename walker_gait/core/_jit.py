@@ -16,7 +16,16 @@ _F1 = np.float32(1.0)
 _INF_BITS = np.int32(0x7F800000)  # bit pattern of float32 +inf
 
 
-@njit(cache=True, nogil=True, error_model="numpy")
+# Signatures given: compiled (or loaded from the cache) when this module is imported, never again at a call.
+# The callers in `likelihood` pass exactly these types.
+_RENDER_SIG = ("void(float32[:, :, ::1], int64, int64, int64[:, ::1], float64[:, ::1], float64[:, ::1], "
+               "float64[:, ::1], float64[:, ::1], float64[:, :, ::1], float64[:, ::1], float64[:, ::1], "
+               "float64[:, :, ::1], float64, boolean[::1], float32[:, ::1], float64, float64)")
+_COSTS_SIG = ("void(float32[:, :, ::1], float32[:, ::1], float32[::1], float32[::1], float32[::1], int32[:, ::1], "
+              "float32[:, ::1], float32[::1])")
+
+
+@njit(_RENDER_SIG, cache=True, nogil=True, error_model="numpy")
 def render_boxes(img, v0, u0, boxes, ax, ay, bx, by, rad, za, zb, drad, fx, clip, ray_up, floor_offset,
                  threshold):  # pragma: no cover - compiled (tested against the numpy renderer)
     """z-buffer the capsules of segments ``boxes[:, 0]`` into ``img`` ``(P, h, w)`` (top-left pixel ``(v0, u0)``).
@@ -82,7 +91,7 @@ def render_boxes(img, v0, u0, boxes, ax, ay, bx, by, rad, za, zb, drad, fx, clip
                     row[k] = zs if (q > _F0) & ((h >= thr) | keep_all) & (zs < cur) else cur
 
 
-@njit(cache=True, nogil=True, error_model="numpy")
+@njit(_COSTS_SIG, cache=True, nogil=True, error_model="numpy")
 def surface_costs(pts, widths, fgx, fgy, fgz, row_min_bits, fm, scratch):  # pragma: no cover - compiled
     """The 3D cue's two minima over ``(P, M, N)`` distances, without building them.
 

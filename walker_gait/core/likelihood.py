@@ -170,9 +170,9 @@ def _surface_costs(model: F32, widths: F32, fg: F32, *, work: Workspace | None =
     if jit is not None:
         row_min = _scratch(work, "row_min", (p, m))
         fm = _scratch(work, "fm", (p, n))
-        fg_t = np.ascontiguousarray(fg.T)
-        jit.surface_costs(np.ascontiguousarray(model), np.ascontiguousarray(widths), fg_t[0], fg_t[1], fg_t[2],
-                          row_min.view(np.int32), fm, _scratch(work, "fm_scratch", (n,)))
+        fg_t = np.ascontiguousarray(np.asarray(fg, dtype=np.float32).T)
+        jit.surface_costs(np.ascontiguousarray(model, dtype=np.float32), np.ascontiguousarray(widths, dtype=np.float32),
+                          fg_t[0], fg_t[1], fg_t[2], row_min.view(np.int32), fm, _scratch(work, "fm_scratch", (n,)))
         return row_min, fm
     d = _pairwise_distances(model, fg, np.einsum("ij,ij->i", fg, fg), work=work)  # (P, M, N)
     # row minima d.min(axis=2) as a reduceat over the row starts: same values, about twice as fast (no per-row
@@ -487,8 +487,10 @@ def render_depth(
     jit = kernels.compiled()
     if jit is not None:
         clip = np.zeros(s, dtype=np.bool_) if floor_clip is None else np.asarray(floor_clip, dtype=np.bool_)
-        jit.render_boxes(img, v0, u0, np.array(boxes, dtype=np.int64), ax, ay, bx, by, rad, za, zb,
-                         rad if drad is None else drad, fx, clip, cue.ray_up, float(cue.floor_offset),
+        cont = np.ascontiguousarray
+        jit.render_boxes(img, v0, u0, np.array(boxes, dtype=np.int64), cont(ax), cont(ay), cont(bx), cont(by), cont(rad),
+                         cont(za), cont(zb), cont(rad if drad is None else drad), fx, cont(clip[:s]),
+                         np.ascontiguousarray(cue.ray_up, dtype=np.float32), float(cue.floor_offset),
                          float(np.float32(max(cue.min_height, 0.0) - 0.005)))
         return out
     # scratch shared by all segments, sized for the largest segment bbox

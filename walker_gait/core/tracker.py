@@ -99,6 +99,7 @@ from typing import Literal
 import numpy as np
 from numpy.typing import NDArray
 
+from walker_gait.core import kernels
 from walker_gait.core import leg_model as lm
 from walker_gait.core.feet import ToeFit, across_only, measure_toes, toes_in_view
 from walker_gait.core.presence import PresenceTest, legs_in_view
@@ -543,6 +544,7 @@ class LegTracker:
         self._presence = config.presence_test()
         self._toe_fit = ToeFit(min_height=config.fg_min_height)
         self._work = Workspace()  # likelihood scratch buffers, reused across frames
+        kernels.compiled()  # load the likelihood's compiled kernels now (compiled once after an install), not on frame 1
         self.reset()
 
     # ------------------------------------------------------------------ public API
