@@ -491,3 +491,39 @@ def test_skeleton_points_over_pixels_without_depth_count_as_occluded(frame) -> N
     assert everywhere.unknown is not None and not (everywhere.unknown & (everywhere.depth > 0)).any()
     with pytest.raises(ValueError, match="unknown shape"):
         CueImage.from_depth(frame.depth, intrinsics=KINECT, stride=4, floor=FLOOR, unknown=hole[:-1])
+
+
+def test_cross_is_numpys() -> None:
+    from walker_gait.core.likelihood import _cross
+
+    rng = np.random.default_rng(3)
+    a, b = rng.normal(size=(7, 6, 3)), rng.normal(size=(7, 6, 3))
+    np.testing.assert_array_equal(_cross(a, b), np.cross(a, b))
+    np.testing.assert_array_equal(_cross(a, b[0]), np.cross(a, b[0]))  # broadcast
+
+
+def test_2d_cue_of_both_backends_agree(frame) -> None:  # noqa: ANN001
+    from walker_gait.core import _jit
+
+    seg, rad = _cam(_perturbed())
+    depth = frame.depth.copy()
+    unknown = np.zeros(depth.shape, bool)
+    unknown[200:260, 250:400] = True  # a hole over part of the legs
+    depth[unknown] = np.nan
+    cue = CueImage.from_depth(depth, intrinsics=KINECT, stride=4, floor=FLOOR, min_height=0.03, unknown=unknown)
+    assert cue.unknown is not None
+    ref_render = render_depth(seg[:1, 3:], rad[:1, 3:], cue=cue,
+                              bbox=(0, cue.intrinsics.height, 0, cue.intrinsics.width))[0]
+    for params in (Cue2DParams(), Cue2DParams(occlusion_aware=True, truncate=0.3)):
+        for ref in (None, ref_render):
+            got = {}
+            for name, jit in (("numpy", None), ("compiled", _jit)):
+                with pytest.MonkeyPatch.context() as mp:
+                    mp.setattr(kernels, "compiled", lambda jit=jit: jit)
+                    got[name] = log_likelihood_2d(seg[:, :3], rad[:, :3], cue=cue, params=params,
+                                                  bbox=(0, cue.intrinsics.height, 0, cue.intrinsics.width),
+                                                  ref_render=ref, floor_clip=np.array([False, False, True]),
+                                                  chunk=2, work=Workspace())
+            assert np.all(np.isfinite(got["numpy"])) and np.ptp(got["numpy"]) > 0
+            # the same float32 costs, summed in float64 in another order
+            np.testing.assert_allclose(got["compiled"], got["numpy"], rtol=1e-12, atol=0)

@@ -124,3 +124,48 @@ def surface_costs(pts, widths, fgx, fgy, fgz, row_min_bits, fm, scratch):  # pra
                 s = bits[i]
                 r = s if s < r else r
             row_min_bits[p, m] = r
+
+
+_COST_SUMS_SIG = ("void(float32[:, ::1], float32[::1], boolean, float32[::1], boolean[::1], boolean, float32, float32, "
+                  "float32, float64[::1], float32[::1])")
+
+
+@njit(_COST_SUMS_SIG, cache=True, nogil=True, error_model="numpy")
+def depth_cost_sums(model, ref, use_ref, obs, unknown, occlusion_aware, tol, occluded_cost, truncate, out,
+                    scratch):  # pragma: no cover - compiled (tested against depth_costs)
+    """Per-particle sums of the 2D cue's pixel costs (eq. 8) over the pixels not ``unknown``: ``out`` ``(P,)``.
+
+    ``model`` ``(P, Npix)`` rendered depth (inf = nothing rendered), z-buffered with ``ref`` ``(Npix,)`` when
+    ``use_ref``; ``obs`` ``(Npix,)`` observed depth (0 = background); ``scratch`` ``(Npix,)``.  Each cost is
+    :func:`walker_gait.core.likelihood.depth_costs`'s float32 value; they are summed in float64, in eight
+    interleaved partial sums (pixel ``i`` into sum ``i % 8``) added up at the end.
+    """
+    n_p, n = model.shape
+    occ_on = occlusion_aware
+    for p in range(n_p):
+        row = model[p]
+        for i in range(n):
+            m = row[i]
+            r = ref[i] if use_ref else m
+            m = r if r < m else m
+            seen = m < np.inf
+            mv = m if seen else _F0
+            k = obs[i]
+            c = abs(mv - k)
+            c = occluded_cost if occ_on & seen & (k > _F0) & (k < mv - tol) else c
+            c = truncate if c > truncate else c
+            scratch[i] = _F0 if unknown[i] else c
+        a0 = a1 = a2 = a3 = a4 = a5 = a6 = a7 = 0.0
+        n8 = n - n % 8
+        for i in range(0, n8, 8):
+            a0 += scratch[i]
+            a1 += scratch[i + 1]
+            a2 += scratch[i + 2]
+            a3 += scratch[i + 3]
+            a4 += scratch[i + 4]
+            a5 += scratch[i + 5]
+            a6 += scratch[i + 6]
+            a7 += scratch[i + 7]
+        for i in range(n8, n):
+            a0 += scratch[i]
+        out[p] = ((a0 + a1) + (a2 + a3)) + ((a4 + a5) + (a6 + a7))

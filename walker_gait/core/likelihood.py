@@ -108,6 +108,21 @@ def skeleton_points(
     return pts, w
 
 
+def _cross(a: FloatArray, b: FloatArray) -> FloatArray:
+    """``np.cross(a, b)`` of ``(..., 3)`` arrays, the same arithmetic without its axis shuffling (several times
+    faster on the tracker's small arrays)."""
+    a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
+    b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
+    out = np.empty(np.broadcast_shapes(a.shape, b.shape), dtype=np.result_type(a, b))
+    np.multiply(a1, b2, out=out[..., 0])
+    out[..., 0] -= a2 * b1
+    np.multiply(a2, b0, out=out[..., 1])
+    out[..., 1] -= a0 * b2
+    np.multiply(a0, b1, out=out[..., 2])
+    out[..., 2] -= a1 * b0
+    return out
+
+
 def elliptic_section_radii(
     segments: FloatArray, lateral: FloatArray, heights: FloatArray, half_widths: FloatArray
 ) -> tuple[FloatArray, FloatArray]:
@@ -124,13 +139,13 @@ def elliptic_section_radii(
     a, b = segments[:, :, 0, :], segments[:, :, 1, :]
     axis = b - a
     axis /= np.maximum(np.linalg.norm(axis, axis=-1, keepdims=True), 1e-9)
-    up = np.cross(axis, lateral)
+    up = _cross(axis, lateral)
     sight = 0.5 * (a + b)  # camera at the origin: line of sight to the segment's middle
     sight /= np.maximum(np.linalg.norm(sight, axis=-1, keepdims=True), 1e-9)
-    perp = np.cross(axis, sight)  # image-perpendicular direction of the projected axis
+    perp = _cross(axis, sight)  # image-perpendicular direction of the projected axis
     norm = np.linalg.norm(perp, axis=-1, keepdims=True)
     perp = np.where(norm > 1e-6, perp / np.maximum(norm, 1e-9), lateral)  # axis along the line of sight
-    toward = np.cross(perp, axis)  # in the section plane, perpendicular to perp, facing the camera
+    toward = _cross(perp, axis)  # in the section plane, perpendicular to perp, facing the camera
 
     def extent(d: FloatArray) -> FloatArray:
         cl = np.einsum("psk,psk->ps", d, lateral)[..., None]
@@ -665,6 +680,13 @@ def log_likelihood_2d(
     unknown = None if cue.unknown is None else np.flatnonzero(cue.unknown[v0:v1, u0:u1].ravel())
     total = float(cue.intrinsics.width * cue.intrinsics.height)
     out = np.empty(p)
+    jit = kernels.compiled()
+    if jit is not None:
+        obs = np.ascontiguousarray(obs, dtype=np.float32)
+        ref32 = obs if ref_render is None else np.ascontiguousarray(ref_render, dtype=np.float32)
+        skip = (np.zeros(obs.size, np.bool_) if unknown is None
+                else np.ascontiguousarray(cue.unknown[v0:v1, u0:u1], dtype=np.bool_).ravel())
+        sums = np.empty(min(p, chunk))
     for c0 in range(0, p, chunk):
         sl = slice(c0, min(p, c0 + chunk))
         model = render_depth(
@@ -677,6 +699,13 @@ def log_likelihood_2d(
             work=work,
             out=_scratch(work, "model", (sl.stop - sl.start, obs.size)),
         )
+        if jit is not None:  # the costs summed in one compiled pass (z-buffered with ref_render there)
+            jit.depth_cost_sums(model, ref32, ref_render is not None, obs, skip, bool(params.occlusion_aware),
+                                np.float32(params.occlusion_tol), np.float32(params.occluded_cost),
+                                np.float32(params.truncate), sums[: sl.stop - sl.start],
+                                _scratch(work, "cost_row", (obs.size,)))
+            out[sl] = sums[: sl.stop - sl.start] / total
+            continue
         if ref_render is not None:
             np.minimum(model, ref_render[None, :], out=model)
         cost = depth_costs(model, obs, params=params, overwrite=True, work=work)
