@@ -380,6 +380,33 @@ def test_leg_tracker_input_depth_sets_the_queue_and_is_validated(rclpy_context: 
         node.destroy_node()
 
 
+def test_leg_tracker_loads_the_compiled_kernels_before_it_subscribes(rclpy_context: None, monkeypatch: Any) -> None:
+    # loaded at the first CameraInfo instead, the ~1 s numba import stalled the node while frames queued up and
+    # overflowed its input queue (frames lost at the start of a live session)
+    from walker_gait.core import kernels
+    from walker_gait.ros import nodes
+
+    subscriptions_when_loaded: list[int] = []
+    holder: dict[str, Any] = {}
+    real_init = nodes.WalkerNode.__init__
+
+    def init(self: Any, *args: Any, **kwargs: Any) -> None:
+        real_init(self, *args, **kwargs)
+        holder["node"] = self
+
+    monkeypatch.setattr(nodes.WalkerNode, "__init__", init)
+    monkeypatch.setattr(kernels, "compiled", lambda: subscriptions_when_loaded.append(len(list(holder["node"].subscriptions))))
+    node = nodes.LegTrackerNode()
+    try:
+        assert len(subscriptions_when_loaded) >= 1  # before any CameraInfo or frame arrived
+        # nothing of the camera or the segmentation subscribed yet at that point
+        assert subscriptions_when_loaded[0] < len(list(node.subscriptions))
+        topics = {s.topic_name for s in node.subscriptions}
+        assert {"/foreground/points", "/foreground/mask", "/floor_plane", "/depth/camera_info"} <= topics
+    finally:
+        node.destroy_node()
+
+
 def test_replay_waits_for_the_wanted_subscribers_on_each_input_topic(rclpy_context: None, tmp_path: Any) -> None:
     """Nothing is published until the depth topic has `wait_subscribers` and the CameraInfo topic
     `wait_info_subscribers` matched subscriptions (volatile QoS loses what is published before)."""

@@ -271,7 +271,12 @@ class LegTrackerNode(WalkerNode):
 
     def __init__(self, **kwargs: Any) -> None:
         super().__init__("leg_tracker", **kwargs)
+        from walker_gait.core import kernels
         from walker_gait.core import tracker as T
+
+        # the likelihood's compiled kernels (numba import + cache load, ~1 s; compiled the first time after an
+        # install) before subscribing: done at the first CameraInfo instead, the stall overflowed the input queue
+        kernels.compiled()
 
         preset = str(self.declare_parameter("preset", "default").value)
         base = T.preset(preset)
