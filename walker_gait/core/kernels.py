@@ -1,16 +1,18 @@
 """Compiled inner loops of the likelihood (numba), with the numpy code of :mod:`likelihood` as the fallback.
 
-The tracker spends most of its time in two loops over particles: the pairwise distances of the 3D cue
-(skeleton points x foreground points) and the capsule renderer of the 2D cue.  In numpy each is a
-sequence of whole-array passes over ``(P, M, N)`` / ``(P, h, w)`` temporaries; compiled, each is one pass
-whose inner loop the compiler vectorises (about 4x faster for both on this project's 2-core machine, see
-DEVELOPERS.md).
+The tracker spends most of its time in three loops over particles: the pairwise distances of the 3D cue
+(skeleton points x foreground points), the capsule renderer of the 2D cue and its per-pixel costs.  In numpy
+each is a sequence of whole-array passes over ``(P, M, N)`` / ``(P, h, w)`` temporaries; compiled, each is one
+pass whose inner loop the compiler vectorises (about 4x faster for each on this project's 2-core machine; the
+tracker's frame 2x, see DEVELOPERS.md).
 
 * :func:`render_boxes` computes exactly the float32 operations of the numpy renderer, in the same order, so
   its image is bit-identical (tested).
 * :func:`surface_costs` computes each distance directly as ``sqrt(dx² + dy² + dz²)`` instead of numpy's
   ``|a|² - 2 a·b + |b|²`` (one matrix product); the two agree to float32 rounding (tested), the direct form
   being the more accurate one.
+* :func:`depth_cost_sums` sums :func:`likelihood.depth_costs`'s float32 pixel costs per particle in float64
+  (in another order than numpy: the same log likelihoods to ~1e-12, tested).
 
 ``compiled()`` returns this module's kernels, or None when numba is not installed or the environment
 variable ``WALKER_GAIT_JIT=0`` turns them off; :mod:`likelihood` then runs its numpy code.  numba is
