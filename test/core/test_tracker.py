@@ -398,6 +398,33 @@ def test_hidden_leg_search_redraws_only_that_leg_and_keeps_constraints(seq) -> N
     assert np.array_equal(tr2._search_hidden_leg(x, 1), out)
 
 
+@pytest.mark.parametrize("first", [True, False])
+def test_a_hidden_leg_is_drawn_before_the_visible_one(first: bool) -> None:
+    """Partitioned sampling draws a leg whose calf and foot are HIDDEN first, against the other leg where it was
+    predicted (``hidden_leg_first``); otherwise, and when both or neither leg are hidden, left then right."""
+    L = lm.StateLayout
+    tr = LegTracker(preset("default", n_particles=32, hidden_leg_first=first), KINECT, rng=np.random.default_rng(0))
+
+    def order() -> list[tuple[tuple[int, ...], int | None]]:
+        stages = tr._stages()
+        assert stages[0][1] == (0, 1) and stages[0][2] is None  # the root with both legs
+        for dims, legs, ref in stages[1:]:
+            assert np.array_equal(np.flatnonzero(dims), np.arange(L.leg(legs[0]).start, L.leg(legs[0]).stop))
+            assert ref == 1 - legs[0]
+        return [(legs, ref) for _, legs, ref in stages[1:]]
+
+    left_first = [((0,), 1), ((1,), 0)]
+    for hidden_legs, expected in (((), left_first), ((0,), left_first), ((0, 1), left_first),
+                                  ((1,), [((1,), 0), ((0,), 1)] if first else left_first)):
+        tr._hidden.hidden[:] = False
+        for side in hidden_legs:
+            tr._hidden.hidden[side, 1:] = True
+        assert order() == expected, hidden_legs
+    tr._hidden.hidden[:] = False
+    tr._hidden.hidden[1, 2] = True  # only the right foot hidden: the calf still measured
+    assert order() == left_first
+
+
 @pytest.mark.parametrize("damping", [0.0, 0.5, 1.0])
 def test_a_hidden_leg_keeps_only_part_of_its_velocity(seq, damping: float) -> None:  # noqa: ANN001
     """The constant-velocity prediction (eq. 3) of a leg whose calf and foot are HIDDEN is scaled by

@@ -197,6 +197,7 @@ class TrackerConfig:
     hidden_search_share: float = 0.0  # share of the particles whose hidden leg (calf and foot HIDDEN) is drawn afresh from a wide range of poses while the estimate leaves more than `hidden_search_unexplained` of the foreground unexplained (0 = off, paper)
     hidden_search_unexplained: float = 0.2  # unexplained foreground share that starts that search ...
     hidden_search_frames: int = 3  # ... once it has lasted this many frames in a row
+    hidden_leg_first: bool = False  # partitioned sampling draws a leg whose calf and foot are HIDDEN before the other one (false: left, then right, always; paper)
     hidden_velocity_damping: float = 1.0  # factor on the joint-angle velocity of a leg whose calf and foot are HIDDEN, on top of `velocity_damping` (1 = as any leg, paper; 0 = hold its pose)
     footprint_sigma: float = math.inf  # m, Gaussian prior on the toe (floor plane) of a HIDDEN foot that was planted when last seen, around that footprint carried along by the floor's motion in the walker frame (inf = none, paper)
     footprint_sigma_growth: float = 0.1  # m/s, growth of that prior's std-dev with the time since the foot was last seen
@@ -341,6 +342,7 @@ DEFAULT = TrackerConfig(
     single_leg_wait_s=1.0,
     hidden_search_share=0.25,
     hidden_velocity_damping=0.0,
+    hidden_leg_first=True,
     coast_frames=15,
     presence_height=0.40,
     fine_2d_only=True,
@@ -647,7 +649,7 @@ class LegTracker:
             self._step(frame)
 
         if self._last_ll is not None:
-            self._logw = self._last_ll  # weights of the last annealing layer (right-leg stage)
+            self._logw = self._last_ll  # weights of the last annealing layer (the second leg's stage)
         else:
             self._logw = self._evaluate(frame, self._x, legs=(0, 1), ref=None)
         self._last_ll = None
@@ -890,6 +892,13 @@ class LegTracker:
         left[L.LEFT] = True
         right = np.zeros(lm.STATE_DIM, dtype=bool)
         right[L.RIGHT] = True
+        h = self._hidden.hidden
+        if self.config.hidden_leg_first and h[1, 1:].all() and not h[0, 1:].all():
+            # the hidden right leg first, against the visible left one where it was: drawn second, the left leg
+            # was free to take data the hidden leg's real counterpart had left unexplained (a trailing leg that
+            # swings past the other one while the model still holds it behind), and the hidden leg's search then
+            # found the place the left leg had left: both identities exchanged
+            return [(root, (0, 1), None), (right, (1,), 0), (left, (0,), 1)]
         return [(root, (0, 1), None), (left, (0,), 1), (right, (1,), 0)]
 
     def _run_stages(
