@@ -527,3 +527,26 @@ def test_2d_cue_of_both_backends_agree(frame) -> None:  # noqa: ANN001
             assert np.all(np.isfinite(got["numpy"])) and np.ptp(got["numpy"]) > 0
             # the same float32 costs, summed in float64 in another order
             np.testing.assert_allclose(got["compiled"], got["numpy"], rtol=1e-12, atol=0)
+
+
+def test_a_broken_numba_install_falls_back_to_numpy_with_a_warning(monkeypatch) -> None:  # noqa: ANN001
+    import builtins
+    import sys
+
+    real_import = builtins.__import__
+
+    def failing_import(name, *args, **kwargs):  # noqa: ANN001, ANN002, ANN003, ANN202
+        if name == "walker_gait.core" and args and args[2] and "_jit" in args[2]:
+            raise OSError("libllvmlite.so: cannot open shared object file")
+        return real_import(name, *args, **kwargs)
+
+    kernels.compiled.cache_clear()
+    monkeypatch.delitem(sys.modules, "walker_gait.core._jit", raising=False)
+    monkeypatch.setattr(builtins, "__import__", failing_import)
+    try:
+        with pytest.warns(RuntimeWarning, match="libllvmlite.so"):
+            assert kernels.compiled() is None
+    finally:
+        monkeypatch.setattr(builtins, "__import__", real_import)
+        kernels.compiled.cache_clear()
+    assert kernels.compiled() is not None

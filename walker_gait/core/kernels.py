@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import functools
 import os
+import warnings
 from types import ModuleType
 
 ENV = "WALKER_GAIT_JIT"
@@ -38,7 +39,12 @@ def compiled() -> ModuleType | None:
         return None
     try:
         from walker_gait.core import _jit
-    except ImportError:
+    except ImportError:  # numba not installed: the numpy code, as documented
+        return None
+    except Exception as exc:  # noqa: BLE001 - a broken numba/llvmlite install must not stop the tracker
+        warnings.warn(f"walker_gait: the likelihood's compiled kernels failed to load ({type(exc).__name__}: {exc}); "
+                      f"running its numpy code (about twice as slow; {ENV}=0 silences this)", RuntimeWarning,
+                      stacklevel=2)
         return None
     return _jit
 
