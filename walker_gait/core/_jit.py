@@ -1,6 +1,6 @@
 """numba kernels of the likelihood; import through :func:`walker_gait.core.kernels.compiled` (needs numba).
 
-Both kernels are compiled with numpy's error model (a division by zero gives inf / NaN as in numpy, and
+All three kernels are compiled with numpy's error model (a division by zero gives inf / NaN as in numpy, and
 leaves the loops free of Python's exception checks, which would stop their vectorisation), without fast-math
 (no reassociation, no fused multiply-add: results do not depend on the CPU's vector width), and release the
 GIL.  Every inner loop runs over a contiguous slice indexed from 0, which lets LLVM vectorise it.
@@ -39,6 +39,7 @@ def render_boxes(img, v0, u0, boxes, ax, ay, bx, by, rad, za, zb, drad, fx, clip
     n_p = img.shape[0]
     fx32 = np.float32(fx)
     off = np.float32(floor_offset)
+    thr = np.float32(threshold)
     width = 0
     for b in range(boxes.shape[0]):
         width = max(width, boxes[b, 4] - boxes[b, 3])
@@ -47,7 +48,6 @@ def render_boxes(img, v0, u0, boxes, ax, ay, bx, by, rad, za, zb, drad, fx, clip
     for b in range(boxes.shape[0]):
         j, sv0, sv1, su0, su1 = boxes[b, 0], boxes[b, 1], boxes[b, 2], boxes[b, 3], boxes[b, 4]
         nu = su1 - su0
-        thr = np.float32(threshold)
         keep_all = not clip[j]
         for p in range(n_p):
             axp, ayp = ax[p, j], ay[p, j]

@@ -675,18 +675,20 @@ def log_likelihood_2d(
     assert bbox is not None
     v0, v1, u0, u1 = bbox
     obs = cue.depth[v0:v1, u0:u1].ravel()
-    # pixels without a depth measurement cost nothing: their costs are taken back out of each particle's sum
-    # (a gather over those pixels, cheaper than masking every pixel when they are a minority)
-    unknown = None if cue.unknown is None else np.flatnonzero(cue.unknown[v0:v1, u0:u1].ravel())
+    # pixels without a depth measurement cost nothing: the compiled sums skip them; the numpy code takes their
+    # costs back out of each particle's sum (a gather over those pixels, cheaper than masking every pixel when
+    # they are a minority)
+    unknown_mask = None if cue.unknown is None else np.ascontiguousarray(cue.unknown[v0:v1, u0:u1], dtype=np.bool_).ravel()
     total = float(cue.intrinsics.width * cue.intrinsics.height)
     out = np.empty(p)
     jit = kernels.compiled()
     if jit is not None:
         obs = np.ascontiguousarray(obs, dtype=np.float32)
         ref32 = obs if ref_render is None else np.ascontiguousarray(ref_render, dtype=np.float32)
-        skip = (np.zeros(obs.size, np.bool_) if unknown is None
-                else np.ascontiguousarray(cue.unknown[v0:v1, u0:u1], dtype=np.bool_).ravel())
+        skip = np.zeros(obs.size, np.bool_) if unknown_mask is None else unknown_mask
         sums = np.empty(min(p, chunk))
+    else:
+        unknown = None if unknown_mask is None else np.flatnonzero(unknown_mask)
     for c0 in range(0, p, chunk):
         sl = slice(c0, min(p, c0 + chunk))
         model = render_depth(
