@@ -537,6 +537,40 @@ def test_a_step_whose_landing_foot_was_not_seen_is_doubted() -> None:
         assert n_good == len(got) - (1 if v_hid < 0.5 and cfg.landing_visibility > 0 else 0)  # ... not pooled
 
 
+def test_a_step_the_tracker_doubted_during_its_swing_is_doubted() -> None:
+    """A dip of the tracker's confidence (0.6, below ``swing_min_quality``) in the 0.6 s before a heel strike or the
+    0.2 s after it halves that step's confidence; steps whose window misses the dip keep theirs, and with the rule
+    off every step keeps the confidence the dipped frames alone give it."""
+    from walker_gait.core.gait import SWING_QUALITY_BEFORE_S
+
+    spec = SCENARIOS["normal"]
+    sim = simulate_gait(spec, rng=np.random.default_rng(0))
+    strikes = [e.stamp for e in sim.events if e.kind == EventKind.HEEL_STRIKE]
+    t_dip = strikes[len(strikes) // 2] - 0.3  # in the swing of the middle step
+    dipped = [replace(p, confidence=0.6) if abs(p.stamp - t_dip) < 0.05 else p for p in sim.poses]
+
+    def by_strike(steps: list[Step]) -> dict[float, Step]:
+        pairs, _, _ = match_steps(sim.steps, steps)
+        return {sim.steps[i].stamp: steps[j] for i, j in pairs}
+
+    off = by_strike(run_analyzer(dipped, sim.floor, config=GaitConfig(swing_min_quality=0.0)).steps)
+    on = by_strike(run_analyzer(dipped, sim.floor, config=GaitConfig()).steps)
+    assert GaitConfig().swing_min_quality > 0.6
+    assert on.keys() == off.keys() and len(on) == len(sim.steps)
+    n_doubted = 0
+    for t, st in on.items():
+        assert st.step_length == off[t].step_length  # the footprint is the same; only the trust in it differs
+        if t - SWING_QUALITY_BEFORE_S <= t_dip + 0.05 and t_dip - 0.05 <= t + 0.2:
+            n_doubted += 1
+            assert st.confidence == pytest.approx(0.5 * off[t].confidence)
+            assert st.confidence < GaitConfig().summary_min_confidence  # out of the summary means
+        else:
+            assert st.confidence == off[t].confidence
+    assert 1 <= n_doubted <= 2
+    with pytest.raises(GaitInputError, match="swing_min_quality"):
+        GaitConfig(swing_min_quality=1.5)
+
+
 def test_temporal_parameters_match_ground_truth() -> None:
     sim, ga, r = _run(SCENARIOS["asymmetric"])
     for attr in ("step_time", "swing_time", "stance_time", "double_support_time"):

@@ -82,6 +82,7 @@ _HINGE_POWERS = (1.0, 1.5, 2.0, 3.0)
 _TOE_DOWN_S = 0.15  # s: a landing foot's toe is down this soon after its heel strike (foot flat: ~0.06 s in walking)
 _MAX_DRIFT_SPEED = 2.0  # m/s: faster than a walker user walks; a planted foot's drift beyond it is a bad fit
 _FLAT_HEEL_SPAN_S = 0.3  # s: the trailing foot's last flat frames averaged for its heel across the line of progression
+SWING_QUALITY_BEFORE_S = 0.6  # s before a heel strike from which `swing_min_quality` looks at the frame quality (the swing)
 
 
 class GaitInputError(ValueError):
@@ -212,6 +213,12 @@ class GaitConfig:
     of the landing foot below which a step's confidence is scaled down in proportion (``v / landing_visibility``):
     a foot the tracker did not see land was placed by its motion model, and such steps were off by 13-52 cm
     on average on the sweeps (0 = off)."""
+    swing_min_quality: float = 0.75
+    """Lowest frame quality (the tracker's confidence, halved on degraded frames; frames with a pose only) from
+    ``SWING_QUALITY_BEFORE_S`` (0.6 s) before a heel strike to 0.2 s after it, below which the step's confidence
+    is halved: the tracker doubted its own pose while it carried the landing foot through its swing.  On the
+    sweeps' tracked poses (five sets x two tracker seeds, thirty-sixth session) the confident steps' step length
+    MAE went from 1.33-2.05 to 1.18-1.83 cm, for 2-4 % of the steps left out of the summary means (0 = off)."""
     heel_rise_travel: bool = True
     """Take back, from the trailing foot's ankle at the strike (the footprint chain's width, and the reported one
     where ``width_flat_trailing_s`` finds no flat frame), its travel along the foot since the foot was
@@ -321,6 +328,8 @@ class GaitConfig:
             raise GaitInputError("GaitConfig.history_s must exceed baseline_window_s + 2*double_support_max_s")
         if not 0 <= self.landing_visibility <= 1:
             raise GaitInputError(f"GaitConfig.landing_visibility must be in [0, 1], got {self.landing_visibility}")
+        if not 0 <= self.swing_min_quality <= 1:
+            raise GaitInputError(f"GaitConfig.swing_min_quality must be in [0, 1], got {self.swing_min_quality}")
         if not 0 <= self.summary_min_time_confidence <= self.summary_min_confidence <= 1:
             raise GaitInputError("GaitConfig needs 0 <= summary_min_time_confidence <= summary_min_confidence <= 1, got "
                                  f"{self.summary_min_time_confidence}, {self.summary_min_confidence}")
@@ -1543,6 +1552,10 @@ class GaitAnalyzer:
             seen = self._valid_range(t1 - 0.1, t1 + 0.2)
             if seen.size:
                 conf *= min(1.0, float(self._vis[seen, a].mean()) / c.landing_visibility)
+        if c.swing_min_quality > 0:
+            swing = self._valid_range(t1 - SWING_QUALITY_BEFORE_S, t1 + 0.2)
+            if swing.size and float(self._q[swing].min()) < c.swing_min_quality:
+                conf *= 0.5
         if not np.all(np.isfinite(d)):
             conf = 0.0
         cfg = self.config
