@@ -2,9 +2,12 @@
 
 from __future__ import annotations
 
-import numpy as np
+import math
 
-from walker_gait.bench.endtoend import IN_VIEW_LEAD_S, IN_VIEW_TAIL_S, at_walker, steps_in_view
+import numpy as np
+import pytest
+
+from walker_gait.bench.endtoend import IN_VIEW_LEAD_S, IN_VIEW_TAIL_S, at_walker, recovery_time, steps_in_view
 from walker_gait.core.segmentation import RoiConfig
 from walker_gait.core.types import ANKLE, FloorPlane
 
@@ -64,3 +67,21 @@ def test_rendered_present_needs_one_leg_trackable_needs_both() -> None:
     r = Rendered(frames=[], visible_pixels=np.array([[0, 0], [500, 0], [0, 300], [250, 250], [150, 150]]), seconds=0.0)
     assert r.present(min_pixels=200).tolist() == [False, True, True, True, False]
     assert r.trackable(min_pixels=200).tolist() == [False, False, False, True, False]
+
+
+def test_recovery_time_counts_from_the_start_frame_until_the_error_stays_low() -> None:
+    stamps = np.arange(20) / 10.0
+    err = np.full((20, 2, 5), 0.30)
+    err[:3] = np.nan  # no pose yet
+    err[8] = 0.05  # one good frame is not a recovery
+    err[12:] = 0.04
+    start = np.zeros(20, dtype=bool)
+    start[2:] = True
+    assert recovery_time(stamps, err, start) == pytest.approx(1.0)  # 1.2 - 0.2
+    later = np.zeros(20, dtype=bool)
+    later[10:] = True
+    assert recovery_time(stamps, err, later) == pytest.approx(0.2)
+    assert math.isnan(recovery_time(stamps, err, np.zeros(20, dtype=bool)))
+    err[17] = 0.5  # the error never stays low for five frames after the start
+    err[12:16] = 0.5
+    assert recovery_time(stamps, err, start) == math.inf

@@ -8,9 +8,9 @@ errors (the seed paper's Tables 2-3 measure), heel-strike timing, cadence, and p
 
 from __future__ import annotations
 
-import warnings
-
+import math
 import time
+import warnings
 from dataclasses import dataclass, field
 from types import SimpleNamespace
 from typing import TYPE_CHECKING, Any
@@ -48,7 +48,8 @@ class Score:
     hs_timing_median_frames: float = float("nan")
     cadence_err_pct: float = float("nan")
     steps_during_standstill: int = 0
-    recovery_s: float = float("nan")
+    recovery_s: float = float("nan")  # from the user's arrival at the walker (:func:`recovery_time`)
+    recovery_in_image_s: float = float("nan")  # from the user's first frame in the image, wherever
     in_image_pct: dict[str, float] = field(default_factory=dict)  # frames where the true point is in the image
     tracker_first_ms: float = float("nan")  # the first frame (initial search)
     tracker_ms_after_first: float = float("nan")  # mean over the frames after it
@@ -84,6 +85,31 @@ def at_walker(truth: np.ndarray, floor: FloorPlane, roi: RoiConfig | None = None
         inside = ((pw[..., 0] >= r.near) & (pw[..., 0] <= r.forward)
                   & (pw[..., 1] <= r.left + r.center_max_shift) & (pw[..., 1] >= -(r.right + r.center_max_shift)))
     return np.asarray(inside.all(axis=1), dtype=bool)
+
+
+RECOVERY_ERR_M = 0.10
+"""Mean 3D error (m) of the five points of both legs under which a track counts as recovered ..."""
+
+RECOVERY_HOLD_FRAMES = 5
+"""... in this many frames in a row."""
+
+
+def recovery_time(stamps: np.ndarray, err: np.ndarray, start: np.ndarray) -> float:
+    """Seconds from the first frame in which ``start`` holds to the first frame from which the mean error stays
+    under :data:`RECOVERY_ERR_M` for :data:`RECOVERY_HOLD_FRAMES` frames (``err`` ``(T, 2, 5)`` metres, NaN where
+    the tracker reports no pose: not recovered).  NaN when ``start`` never holds, inf when the track never
+    recovers after it."""
+    start = np.asarray(start, dtype=bool)
+    if not start.any():
+        return float("nan")
+    first = int(np.argmax(start))
+    with warnings.catch_warnings():
+        warnings.filterwarnings("ignore", message="Mean of empty slice", category=RuntimeWarning)
+        ok = np.nanmean(np.asarray(err, dtype=float).reshape(len(start), -1), axis=1) < RECOVERY_ERR_M
+    for j in range(first, len(ok) - RECOVERY_HOLD_FRAMES + 1):
+        if ok[j:j + RECOVERY_HOLD_FRAMES].all():
+            return float(stamps[j] - stamps[first])
+    return math.inf
 
 
 def steps_in_view(step_stamps: np.ndarray, stamps: np.ndarray, present: np.ndarray, *,
@@ -246,14 +272,13 @@ def evaluate(session: Any, *, preset: str = "default", cue: str | None = None, s
             lower = slice(1, 5)  # knee..toe: the observable points
             score.swap_frames = int(np.sum(np.nanmean(swapped[vis][:, :, lower], axis=(1, 2)) + 0.05
                                            < np.nanmean(err[vis][:, :, lower], axis=(1, 2))))
-        # recovery after the user appears (absent start): first time the error stays < 10 cm
+        # recovery after the user appears (absent start): from the first frame with both legs in the image and at
+        # the walker (the region the tracker measures), and from the first with both legs anywhere in the image
         if not vis.all() and vis.any():
-            first = int(np.argmax(vis))
-            ok = np.nanmean(err, axis=(1, 2)) < 0.10
-            for j in range(first, n):
-                if ok[j:j + 5].all():
-                    score.recovery_s = float(session.stamps[j] - session.stamps[first])
-                    break
+            stamps = np.asarray(session.stamps[:n], dtype=float)
+            arrived = vis & at_walker(truth, session.params.mount.floor_plane())
+            score.recovery_s = recovery_time(stamps, err, arrived)
+            score.recovery_in_image_s = recovery_time(stamps, err, vis)
     # --- steps
     t_end = float(session.stamps[n - 1])
     gt = [s for s in _gt_as_steps(session) if s.stamp <= t_end]
