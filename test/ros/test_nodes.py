@@ -474,3 +474,63 @@ def test_gait_analyzer_restarts_when_a_replay_loops_and_skips_repeated_stamps(rc
         assert node.problems == {"stamp_not_increasing": 1}
     finally:
         node.destroy_node()
+
+
+def _part(stamp: float) -> Any:
+    from types import SimpleNamespace
+
+    return SimpleNamespace(header=M.make_header(stamp, "cam"))
+
+
+def test_stamp_sync_hands_out_complete_frames_and_lists_the_ones_it_gave_up_once() -> None:
+    from walker_gait.ros.nodes import StampSync
+
+    sync = StampSync(("a", "b", "c"), keep=3)
+    assert sync.add("a", _part(1.0)) is None
+    assert sync.add("b", _part(1.0)) is None
+    # frame 1's "c" never comes; frame 2 completes: frame 1 is given up (each topic arrives in order)
+    for name in ("a", "c"):
+        assert sync.add(name, _part(2.0)) is None
+    done = sync.add("b", _part(2.0))
+    assert done is not None and sorted(done) == ["a", "b", "c"]
+    assert sync.take_dropped() == [(M.stamp_to_ns(_part(1.0).header.stamp), ("c",))]
+    assert sync.take_dropped() == []  # listed once
+    # more incomplete frames than `keep`: the oldest ones are pushed out
+    for i in range(5):
+        assert sync.add("a", _part(3.0 + i)) is None
+    dropped = sync.take_dropped()
+    assert [m for _, m in dropped] == [("b", "c"), ("b", "c")] and len(sync.pending) == 3
+    # the frames still pending complete as usual
+    for name in ("b", "c"):
+        sync.add(name, _part(7.0))
+    assert sync.take_dropped() == [(M.stamp_to_ns(_part(5.0).header.stamp), ("b", "c")),
+                                   (M.stamp_to_ns(_part(6.0).header.stamp), ("b", "c"))]
+    assert not sync.pending
+
+
+def test_gait_analyzer_counts_a_frame_whose_parts_did_not_all_arrive(rclpy_context: None) -> None:
+    """A LegTrack whose FloorPlane never came is reported once and counted on /diagnostics, not lost silently."""
+    from walker_gait.core.types import LegPose, TrackStatus
+    from walker_gait.ros.nodes import GaitAnalyzerNode
+
+    node = GaitAnalyzerNode()
+    node.publish_results = lambda events, steps, header: None
+    floor = FloorPlane.from_camera_pose(height=0.5, pitch=0.5)
+    try:
+        def send(stamp: float, *, with_floor: bool = True) -> None:
+            header = M.make_header(stamp, "cam")
+            pose = LegPose(stamp=stamp, points=np.zeros((2, 5, 3)), status=TrackStatus.NO_USER, confidence=0.0)
+            node.dispatch("leg_track", M.LEG_TRACK, lambda m: node.on_part("track", m),
+                          M.serialize(M.make_leg_track(pose, header)))
+            if with_floor:
+                node.dispatch("floor_plane", M.FLOOR_PLANE, lambda m: node.on_part("floor", m),
+                              M.serialize(M.make_floor_plane(floor, header)))
+
+        send(1.0)
+        send(1.1, with_floor=False)
+        send(1.2)
+        send(1.3)
+        assert node.frames_ok == 3
+        assert node.problems == {"incomplete_frame": 1}
+    finally:
+        node.destroy_node()

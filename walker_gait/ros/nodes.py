@@ -243,27 +243,50 @@ class FloorSegmentationNode(WalkerNode):
 
 
 class StampSync:
-    """Exact-time synchroniser for a few topics published with one header (no message_filters on PyPI)."""
+    """Exact-time synchroniser for a few topics published with one header (no message_filters on PyPI).
+
+    A frame is complete once every named part with its stamp (and frame id) has arrived.  A frame still
+    incomplete when a later one completes, or pushed out by more than ``keep`` incomplete ones, is given up:
+    :meth:`take_dropped` lists those (stamp, missing parts) once, for the node to report.
+    """
 
     def __init__(self, names: tuple[str, ...], *, keep: int = 10) -> None:
         self.names = names
         self.keep = keep
         self.pending: OrderedDict[tuple[int, str], dict[str, Any]] = OrderedDict()
+        self._dropped: list[tuple[int, tuple[str, ...]]] = []
 
     def add(self, name: str, msg: Any) -> dict[str, Any] | None:
         key = (M.stamp_to_ns(msg.header.stamp), msg.header.frame_id)
         slot = self.pending.setdefault(key, {})
         slot[name] = msg
         if len(slot) == len(self.names):
-            # complete: drop it and everything older
+            # complete: hand it out; older frames still incomplete will not complete any more (each topic
+            # arrives in order), so they are given up
             while self.pending:
                 k, v = self.pending.popitem(last=False)
                 if k == key:
                     return v
+                self._drop(k, v)
             return slot
         while len(self.pending) > self.keep:
-            self.pending.popitem(last=False)
+            self._drop(*self.pending.popitem(last=False))
         return None
+
+    def _drop(self, key: tuple[int, str], slot: dict[str, Any]) -> None:
+        self._dropped.append((key[0], tuple(n for n in self.names if n not in slot)))
+
+    def take_dropped(self) -> list[tuple[int, tuple[str, ...]]]:
+        """``(stamp ns, missing part names)`` of the frames given up since the last call."""
+        out, self._dropped = self._dropped, []
+        return out
+
+
+def report_dropped(node: WalkerNode, sync: StampSync) -> None:
+    """Count each frame ``sync`` gave up as a skipped frame of ``node`` (logged once, on /diagnostics)."""
+    for stamp_ns, missing in sync.take_dropped():
+        node.report_problem("incomplete_frame", f"frame stamped {stamp_ns * 1e-9:.3f} s dropped: its "
+                                                f"{', '.join(missing)} never arrived (an input queue overflowed?)")
 
 
 class LegTrackerNode(WalkerNode):
@@ -315,6 +338,7 @@ class LegTrackerNode(WalkerNode):
 
     def on_part(self, name: str, msg: Any) -> None:
         complete = self.sync.add(name, msg)
+        report_dropped(self, self.sync)
         if complete is None:
             return
         if self.tracker is None:
@@ -379,6 +403,7 @@ class GaitAnalyzerNode(WalkerNode):
 
     def on_part(self, name: str, msg: Any) -> None:
         parts = self.sync.add(name, msg)
+        report_dropped(self, self.sync)
         if parts is not None:
             self.on_frame(parts["track"], M.floor_from_msg(parts["floor"]))
 
