@@ -207,6 +207,7 @@ def section_process_and_live(seed: int, live: bool) -> list[str]:
                       f"(target median ≤ 100 ms); latency trend {f(lr.latency_trend_ms_per_s())} ms per s "
                       f"(> 0 = growing backlog); frames reported skipped: {lr.skipped or 'none'}; "
                       f"{len(lr.steps)} steps (process: {len(res.steps)})"]
+            lines += [f"  * `{line}`" for line in lr.skip_log]
     return lines + [""]
 
 

@@ -16,6 +16,7 @@ import os
 import signal
 import subprocess
 import sys
+import tempfile
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -37,6 +38,7 @@ class LiveResult:
     wall_s: float = 0.0
     first_stamp_ns: int | None = None
     missing_stamps_ns: list[int] = field(default_factory=list)  # images that produced no JointState
+    skip_log: list[str] = field(default_factory=list)  # the graph's log lines about skipped frames
 
     @property
     def median_latency_ms(self) -> float:
@@ -116,7 +118,9 @@ def run_live(path: Path, *, rate: float = 1.0, timeout_s: float = 120.0, settle_
              "--param", "floor_segmentation.input_reliability=reliable"]
     for p in params:
         graph += ["--param", p]
-    run = subprocess.Popen(graph, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
+    # the graph's log goes to a file: a pipe nobody reads would block the nodes once it fills
+    log_file = tempfile.TemporaryFile(mode="w+", encoding="utf-8")
+    run = subprocess.Popen(graph, env=env, stdout=subprocess.DEVNULL, stderr=log_file, text=True,
                            start_new_session=True)
     replay: subprocess.Popen[str] | None = None
     t0 = time.monotonic()
@@ -135,7 +139,7 @@ def run_live(path: Path, *, rate: float = 1.0, timeout_s: float = 120.0, settle_
         replay = subprocess.Popen([sys.executable, "-m", "walker_gait.cli", "replay", str(path), "--rate", str(rate),
                                    "--start-delay", "0.5", "--wait-subscribers", str(links["/depth/image_raw"]),
                                    "--wait-info-subscribers", str(links["/depth/camera_info"])],
-                                  env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
+                                  env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, text=True,
                                   start_new_session=True)
         t0 = time.monotonic()
         deadline = t0 + timeout_s
@@ -172,6 +176,9 @@ def run_live(path: Path, *, rate: float = 1.0, timeout_s: float = 120.0, settle_
             except subprocess.TimeoutExpired:
                 os.killpg(run.pid, signal.SIGKILL)
         result.run_exit_code = run.wait()
+        log_file.seek(0)
+        result.skip_log = [line.strip() for line in log_file if "frame skipped" in line]
+        log_file.close()
         result.missing_stamps_ns = sorted(arrivals)
         node.destroy_node()
         rclpy.shutdown()
