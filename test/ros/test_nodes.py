@@ -486,18 +486,18 @@ def test_stamp_sync_hands_out_complete_frames_and_lists_the_ones_it_gave_up_once
     from walker_gait.ros.nodes import StampSync
 
     sync = StampSync(("a", "b", "c"), keep=3)
-    assert sync.add("a", _part(1.0)) is None
-    assert sync.add("b", _part(1.0)) is None
+    assert sync.add("a", _part(1.0)) == []
+    assert sync.add("b", _part(1.0)) == []
     # frame 1's "c" never comes; frame 2 completes: frame 1 is given up (each topic arrives in order)
     for name in ("a", "c"):
-        assert sync.add(name, _part(2.0)) is None
-    done = sync.add("b", _part(2.0))
-    assert done is not None and sorted(done) == ["a", "b", "c"]
+        assert sync.add(name, _part(2.0)) == []
+    ready = sync.add("b", _part(2.0))
+    assert len(ready) == 1 and sorted(ready[0]) == ["a", "b", "c"]
     assert sync.take_dropped() == [(M.stamp_to_ns(_part(1.0).header.stamp), ("c",))]
     assert sync.take_dropped() == []  # listed once
     # more incomplete frames than `keep`: the oldest ones are pushed out
     for i in range(5):
-        assert sync.add("a", _part(3.0 + i)) is None
+        assert sync.add("a", _part(3.0 + i)) == []
     dropped = sync.take_dropped()
     assert [m for _, m in dropped] == [("b", "c"), ("b", "c")] and len(sync.pending) == 3
     # the frames still pending complete as usual
@@ -505,11 +505,34 @@ def test_stamp_sync_hands_out_complete_frames_and_lists_the_ones_it_gave_up_once
         sync.add(name, _part(7.0))
     assert sync.take_dropped() == [(M.stamp_to_ns(_part(5.0).header.stamp), ("b", "c")),
                                    (M.stamp_to_ns(_part(6.0).header.stamp), ("b", "c"))]
-    assert not sync.pending
+    assert not sync.pending and sync.take_stood_in() == []
+
+
+def test_stamp_sync_stands_in_the_latest_slow_part_for_one_that_never_arrived() -> None:
+    from walker_gait.ros.nodes import StampSync
+
+    with pytest.raises(ValueError, match="stand_in"):
+        StampSync(("a", "b"), stand_in=("x",))
+    sync = StampSync(("pts", "floor"), stand_in=("floor",))
+    first_floor = _part(1.0)
+    assert sync.add("pts", _part(1.0)) == [] and len(sync.add("floor", first_floor)) == 1
+    pts2, pts3, floor3 = _part(2.0), _part(3.0), _part(3.0)
+    assert sync.add("pts", pts2) == []  # frame 2's floor never comes
+    assert sync.add("pts", pts3) == []
+    ready = sync.add("floor", floor3)
+    # frame 2 first, with the latest floor (frame 3's, which came before it was given up), then frame 3
+    assert [r["pts"] for r in ready] == [pts2, pts3] and [r["floor"] for r in ready] == [floor3, floor3]
+    assert sync.take_stood_in() == [(M.stamp_to_ns(pts2.header.stamp), ("floor",))] and sync.take_dropped() == []
+    # a frame missing a part that cannot be stood in for is dropped as before
+    sync.add("floor", _part(4.0))
+    sync.add("pts", _part(5.0))
+    sync.add("floor", _part(5.0))
+    assert sync.take_dropped() == [(M.stamp_to_ns(_part(4.0).header.stamp), ("pts",))]
 
 
 def test_gait_analyzer_counts_a_frame_whose_parts_did_not_all_arrive(rclpy_context: None) -> None:
-    """A LegTrack whose FloorPlane never came is reported once and counted on /diagnostics, not lost silently."""
+    """A LegTrack whose FloorPlane never came is analysed with the latest floor plane (counted); a FloorPlane
+    whose LegTrack never came is reported once and counted on /diagnostics, not lost silently."""
     from walker_gait.core.types import LegPose, TrackStatus
     from walker_gait.ros.nodes import GaitAnalyzerNode
 
@@ -517,11 +540,12 @@ def test_gait_analyzer_counts_a_frame_whose_parts_did_not_all_arrive(rclpy_conte
     node.publish_results = lambda events, steps, header: None
     floor = FloorPlane.from_camera_pose(height=0.5, pitch=0.5)
     try:
-        def send(stamp: float, *, with_floor: bool = True) -> None:
+        def send(stamp: float, *, track: bool = True, with_floor: bool = True) -> None:
             header = M.make_header(stamp, "cam")
             pose = LegPose(stamp=stamp, points=np.zeros((2, 5, 3)), status=TrackStatus.NO_USER, confidence=0.0)
-            node.dispatch("leg_track", M.LEG_TRACK, lambda m: node.on_part("track", m),
-                          M.serialize(M.make_leg_track(pose, header)))
+            if track:
+                node.dispatch("leg_track", M.LEG_TRACK, lambda m: node.on_part("track", m),
+                              M.serialize(M.make_leg_track(pose, header)))
             if with_floor:
                 node.dispatch("floor_plane", M.FLOOR_PLANE, lambda m: node.on_part("floor", m),
                               M.serialize(M.make_floor_plane(floor, header)))
@@ -529,8 +553,71 @@ def test_gait_analyzer_counts_a_frame_whose_parts_did_not_all_arrive(rclpy_conte
         send(1.0)
         send(1.1, with_floor=False)
         send(1.2)
-        send(1.3)
-        assert node.frames_ok == 3
+        send(1.3, track=False)
+        send(1.4)
+        assert node.frames_ok == 4
         assert node.problems == {"incomplete_frame": 1}
+        assert node.stand_ins == {"floor": 1}
     finally:
         node.destroy_node()
+
+
+def test_leg_tracker_tracks_a_frame_whose_floor_plane_never_arrived(rclpy_context: None) -> None:
+    """The floor plane is the part the live graph lost (an input queue overflowing while the tracker was busy): the
+    frame is tracked with the latest floor plane, a JointState per image; a frame without its cloud is dropped."""
+    from walker_gait.bench.tracker import KINECT, gait_state, render_frame
+    from walker_gait.ros.nodes import LegTrackerNode
+
+    floor = FloorPlane.from_camera_pose(height=0.70, pitch=0.50)
+    node = LegTrackerNode(parameter_overrides=[rclpy.parameter.Parameter("n_particles", value=32),
+                                               rclpy.parameter.Parameter("init_rounds", value=1)])
+    joints: list[Any] = []
+    node.pub_joints = joints.append
+    node.pub_track = lambda msg: None
+    node.pub_markers = lambda msg: None
+    try:
+        node.dispatch("depth/camera_info", M.CAMERA_INFO, node.on_info,
+                      M.serialize(M.make_camera_info(KINECT, M.make_header(1.0, "cam"))))
+
+        def send(stamp: float, *, points: bool = True, with_floor: bool = True) -> None:
+            fr = render_frame(gait_state(0.2), intrinsics=KINECT, floor=floor, mounting="facing_user",
+                              rng=np.random.default_rng(0), stamp=stamp)
+            header = M.make_header(stamp, "cam")
+            if points:
+                node.dispatch("foreground/points", M.POINT_CLOUD2, lambda m: node.on_part("points", m),
+                              M.serialize(M.make_pointcloud2(fr.points, header)))
+            node.dispatch("foreground/mask", M.IMAGE, lambda m: node.on_part("mask", m),
+                          M.serialize(M.make_image(np.isfinite(fr.depth).astype(np.uint8) * 255, header,
+                                                   encoding="mono8")))
+            if with_floor:
+                node.dispatch("floor_plane", M.FLOOR_PLANE, lambda m: node.on_part("floor", m),
+                              M.serialize(M.make_floor_plane(floor, header)))
+
+        send(1.0)
+        send(1.0 + 1 / 30, with_floor=False)
+        send(1.0 + 2 / 30)
+        send(1.0 + 3 / 30, points=False)
+        send(1.0 + 4 / 30)
+        stamps = [M.stamp_to_ns(j.header.stamp) for j in joints]
+        assert stamps == [M.stamp_to_ns(M.make_header(1.0 + i / 30, "cam").stamp) for i in (0, 1, 2, 4)]
+        assert node.stand_ins == {"floor": 1} and node.problems == {"incomplete_frame": 1}
+    finally:
+        node.destroy_node()
+
+
+def test_stamp_sync_hands_frames_out_in_stamp_order_when_a_lost_part_delays_one() -> None:
+    """The floor planes run ahead of the leg tracks; a frame whose floor was lost is first seen, by its track, after
+    later frames' floors: it still comes out before them (it came out after them, out of order, by arrival)."""
+    from walker_gait.ros.nodes import StampSync
+
+    sync = StampSync(("track", "floor"), stand_in=("floor",))
+    assert sync.add("floor", _part(0.9)) == [] and len(sync.add("track", _part(0.9))) == 1
+    for t in (1.1, 1.2):  # floor 1.0 is lost
+        assert sync.add("floor", _part(t)) == []
+    track1 = _part(1.0)
+    assert sync.add("track", track1) == []
+    ready = sync.add("track", _part(1.1))
+    assert [M.stamp_to_ns(r["track"].header.stamp) for r in ready] == [
+        M.stamp_to_ns(_part(1.0).header.stamp), M.stamp_to_ns(_part(1.1).header.stamp)]
+    assert ready[0]["track"] is track1 and sync.take_stood_in() == [(M.stamp_to_ns(track1.header.stamp), ("floor",))]
+    assert list(sync.pending) == [(M.stamp_to_ns(_part(1.2).header.stamp), "cam")]

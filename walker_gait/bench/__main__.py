@@ -205,7 +205,8 @@ def section_process_and_live(seed: int, live: bool) -> list[str]:
             lines += [f"* live graph fed by `replay` at 30 Hz: {lr.images} images in, {lr.joint_states} JointState out; "
                       f"latency image→JointState median **{lr.median_latency_ms:.0f} ms**, p95 {lr.p95_latency_ms:.0f} ms "
                       f"(target median ≤ 100 ms); latency trend {f(lr.latency_trend_ms_per_s())} ms per s "
-                      f"(> 0 = growing backlog); frames reported skipped: {lr.skipped or 'none'}; "
+                      f"(> 0 = growing backlog); frames reported skipped: {lr.skipped or 'none'}, "
+                      f"processed with a stand-in part: {lr.stood_in or 'none'}; "
                       f"{len(lr.steps)} steps (process: {len(res.steps)})"]
             lines += [f"  * `{line}`" for line in lr.skip_log]
     return lines + [""]

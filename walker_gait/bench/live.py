@@ -34,11 +34,12 @@ class LiveResult:
     steps: list[Any] = field(default_factory=list)
     latencies_ms: list[float] = field(default_factory=list)
     skipped: dict[str, int] = field(default_factory=dict)
+    stood_in: dict[str, int] = field(default_factory=dict)  # frames processed with a stand-in part, per node and part
     run_exit_code: int | None = None
     wall_s: float = 0.0
     first_stamp_ns: int | None = None
     missing_stamps_ns: list[int] = field(default_factory=list)  # images that produced no JointState
-    skip_log: list[str] = field(default_factory=list)  # the graph's log lines about skipped frames
+    skip_log: list[str] = field(default_factory=list)  # the graph's log lines about skipped frames and stand-ins
 
     @property
     def median_latency_ms(self) -> float:
@@ -101,6 +102,8 @@ def run_live(path: Path, *, rate: float = 1.0, timeout_s: float = 120.0, settle_
             for kv in status.values:
                 if kv.key.startswith("skipped."):
                     result.skipped[f"{status.name}:{kv.key[8:]}"] = int(kv.value)
+                elif kv.key.startswith("stood_in."):
+                    result.stood_in[f"{status.name}:{kv.key[9:]}"] = int(kv.value)
 
     if by_info:
         node.create_subscription(rclpy_type(M.CAMERA_INFO), "/depth/camera_info",
@@ -177,7 +180,7 @@ def run_live(path: Path, *, rate: float = 1.0, timeout_s: float = 120.0, settle_
                 os.killpg(run.pid, signal.SIGKILL)
         result.run_exit_code = run.wait()
         log_file.seek(0)
-        result.skip_log = [line.strip() for line in log_file if "frame skipped" in line]
+        result.skip_log = [line.strip() for line in log_file if "frame skipped" in line or "stood in" in line]
         log_file.close()
         result.missing_stamps_ns = sorted(arrivals)
         node.destroy_node()

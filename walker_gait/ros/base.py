@@ -83,6 +83,7 @@ class WalkerNode(Node):
     def __init__(self, name: str, **kwargs: Any) -> None:
         super().__init__(name, **kwargs)
         self._problems: Counter[str] = Counter()
+        self._stand_ins: Counter[str] = Counter()
         self._logged: set[str] = set()
         self.frames_ok = 0
         self._diag_pub = self.create_publisher(rclpy_type(M.DIAGNOSTIC_ARRAY), "/diagnostics", DIAGNOSTICS)
@@ -147,11 +148,20 @@ class WalkerNode(Node):
             self._logged.add(kind)
             self.get_logger().error(f"{detail} (frame skipped; {kind} seen {n}x; counted on /diagnostics)")
 
+    def report_stand_in(self, kind: str, detail: str) -> None:
+        """Count a frame processed with a stand-in for a part that never arrived; log the first of each kind
+        (then once per 1000) as a warning."""
+        self._stand_ins[kind] += 1
+        n = self._stand_ins[kind]
+        if n == 1 or n % 1000 == 0:
+            self.get_logger().warning(f"{detail} ({kind} stood in {n}x; counted on /diagnostics)")
+
     def _publish_diagnostics(self) -> None:
         level = 0 if not self._problems else 1
         message = "ok" if not self._problems else f"{sum(self._problems.values())} frame(s) skipped"
         values: dict[str, Any] = {"frames_ok": self.frames_ok}
         values.update({f"skipped.{k}": v for k, v in sorted(self._problems.items())})
+        values.update({f"stood_in.{k}": v for k, v in sorted(self._stand_ins.items())})
         now = self.get_clock().now().nanoseconds
         msg = M.make_diagnostics(M.make_header(M.make_time(now, ns=True), ""), name=f"walker_gait: {self.get_name()}",
                                  hardware_id=self.get_fully_qualified_name(), level=level, message=message,
@@ -161,6 +171,10 @@ class WalkerNode(Node):
     @property
     def problems(self) -> dict[str, int]:
         return dict(self._problems)
+
+    @property
+    def stand_ins(self) -> dict[str, int]:
+        return dict(self._stand_ins)
 
 
 class UndecodableMessage(ValueError):

@@ -16,7 +16,7 @@ Topics, types, QoS and parameters are tabulated in the README.
 from __future__ import annotations
 
 import time
-from collections import OrderedDict, deque
+from collections import deque
 from typing import Any
 
 import numpy as np
@@ -246,47 +246,72 @@ class StampSync:
     """Exact-time synchroniser for a few topics published with one header (no message_filters on PyPI).
 
     A frame is complete once every named part with its stamp (and frame id) has arrived.  A frame still
-    incomplete when a later one completes, or pushed out by more than ``keep`` incomplete ones, is given up:
-    :meth:`take_dropped` lists those (stamp, missing parts) once, for the node to report.
+    incomplete when a later one completes (each topic arrives in order, so it will not complete any more), or
+    pushed out by more than ``keep`` incomplete ones, is given up: :meth:`take_dropped` lists those (stamp,
+    missing parts) once, for the node to report.  Parts named in ``stand_in`` (ones that change slowly, the floor
+    plane) are not worth a frame: a frame missing only those is handed out with the latest message of each
+    instead, and :meth:`take_stood_in` lists it.
     """
 
-    def __init__(self, names: tuple[str, ...], *, keep: int = 10) -> None:
+    def __init__(self, names: tuple[str, ...], *, keep: int = 10, stand_in: tuple[str, ...] = ()) -> None:
+        if not set(stand_in) <= set(names):
+            raise ValueError(f"stand_in {stand_in} must be among the parts {names}")
         self.names = names
         self.keep = keep
-        self.pending: OrderedDict[tuple[int, str], dict[str, Any]] = OrderedDict()
+        self.stand_in = stand_in
+        self.pending: dict[tuple[int, str], dict[str, Any]] = {}
+        self._latest: dict[str, Any] = {}
         self._dropped: list[tuple[int, tuple[str, ...]]] = []
+        self._stood_in: list[tuple[int, tuple[str, ...]]] = []
 
-    def add(self, name: str, msg: Any) -> dict[str, Any] | None:
+    def add(self, name: str, msg: Any) -> list[dict[str, Any]]:
+        """The frames ready after ``msg`` arrived as part ``name``, oldest first (often none or one)."""
         key = (M.stamp_to_ns(msg.header.stamp), msg.header.frame_id)
+        if name in self.stand_in:
+            self._latest[name] = msg
         slot = self.pending.setdefault(key, {})
         slot[name] = msg
+        ready: list[dict[str, Any]] = []
         if len(slot) == len(self.names):
-            # complete: hand it out; older frames still incomplete will not complete any more (each topic
-            # arrives in order), so they are given up
-            while self.pending:
-                k, v = self.pending.popitem(last=False)
-                if k == key:
-                    return v
-                self._drop(k, v)
-            return slot
+            del self.pending[key]
+            # frames by stamp, not by arrival: a frame whose first part was lost is first seen after later ones
+            for k in sorted((k for k in self.pending if k[0] < key[0]), key=lambda k: k[0]):
+                self._give_up(k, self.pending.pop(k), ready)
+            ready.append(slot)
+            return ready
         while len(self.pending) > self.keep:
-            self._drop(*self.pending.popitem(last=False))
-        return None
+            k = min(self.pending, key=lambda k: k[0])
+            self._give_up(k, self.pending.pop(k), ready)
+        return ready
 
-    def _drop(self, key: tuple[int, str], slot: dict[str, Any]) -> None:
-        self._dropped.append((key[0], tuple(n for n in self.names if n not in slot)))
+    def _give_up(self, key: tuple[int, str], slot: dict[str, Any], ready: list[dict[str, Any]]) -> None:
+        missing = tuple(n for n in self.names if n not in slot)
+        if all(n in self.stand_in and n in self._latest for n in missing):
+            ready.append({**slot, **{n: self._latest[n] for n in missing}})
+            self._stood_in.append((key[0], missing))
+        else:
+            self._dropped.append((key[0], missing))
 
     def take_dropped(self) -> list[tuple[int, tuple[str, ...]]]:
         """``(stamp ns, missing part names)`` of the frames given up since the last call."""
         out, self._dropped = self._dropped, []
         return out
 
+    def take_stood_in(self) -> list[tuple[int, tuple[str, ...]]]:
+        """``(stamp ns, part names stood in for)`` of the frames handed out with a stand-in since the last call."""
+        out, self._stood_in = self._stood_in, []
+        return out
 
-def report_dropped(node: WalkerNode, sync: StampSync) -> None:
-    """Count each frame ``sync`` gave up as a skipped frame of ``node`` (logged once, on /diagnostics)."""
+
+def report_sync(node: WalkerNode, sync: StampSync) -> None:
+    """Count each frame ``sync`` gave up as a skipped frame of ``node`` (logged once, on /diagnostics), and each
+    one it completed with a stand-in part (logged once, counted on /diagnostics)."""
     for stamp_ns, missing in sync.take_dropped():
         node.report_problem("incomplete_frame", f"frame stamped {stamp_ns * 1e-9:.3f} s dropped: its "
                                                 f"{', '.join(missing)} never arrived (an input queue overflowed?)")
+    for stamp_ns, missing in sync.take_stood_in():
+        node.report_stand_in("_".join(missing), f"the {', '.join(missing)} of the frame stamped "
+                                                 f"{stamp_ns * 1e-9:.3f} s never arrived: the latest one stood in")
 
 
 class LegTrackerNode(WalkerNode):
@@ -309,7 +334,7 @@ class LegTrackerNode(WalkerNode):
         self.seed = int(self.declare_parameter("seed", 0).value)
         self.tracker: Any = None
         self.intrinsics: Any = None
-        self.sync = StampSync(("points", "mask", "floor"))
+        self.sync = StampSync(("points", "mask", "floor"), stand_in=("floor",))
         self.pub_joints = self.raw_publisher(M.JOINT_STATE, "joint_states", STREAM)
         self.pub_track = self.raw_publisher(M.LEG_TRACK, "leg_track", STREAM)
         self.pub_markers = self.raw_publisher(M.MARKER_ARRAY, "leg_markers", STREAM)
@@ -337,18 +362,21 @@ class LegTrackerNode(WalkerNode):
                 self.track(self._waiting.popleft())
 
     def on_part(self, name: str, msg: Any) -> None:
-        complete = self.sync.add(name, msg)
-        report_dropped(self, self.sync)
-        if complete is None:
-            return
+        ready = self.sync.add(name, msg)
+        report_sync(self, self.sync)
+        for complete in ready:
+            with self.guard("leg_tracker"):
+                self.on_frame_parts(complete)
+
+    def on_frame_parts(self, complete: dict[str, Any]) -> None:
+        """One frame's parts: tracked, or held until the first CameraInfo."""
         if self.tracker is None:
             self._waiting.append(complete)
             if len(self._waiting) > WAITING_IMAGES:
                 self._waiting.popleft()  # the oldest held frame is dropped and counted
                 raise MissingCameraInfo("no CameraInfo received on depth/camera_info yet")
             return
-        with self.guard("leg_tracker"):
-            self.track(complete)
+        self.track(complete)
 
     def track(self, parts: dict[str, Any]) -> None:
         header = parts["points"].header
@@ -384,7 +412,7 @@ class GaitAnalyzerNode(WalkerNode):
         use_odom = bool(self.declare_parameter("use_odometry", False).value)
         self.analyzer = GaitAnalyzer(self.config)
         self._last_stamp: float | None = None
-        self.sync = StampSync(("track", "floor"))
+        self.sync = StampSync(("track", "floor"), stand_in=("floor",))
         self.frame_id = ""
         self.pub_event = self.raw_publisher(M.GAIT_EVENT, "gait_events", EVENTS)
         self.pub_step = self.raw_publisher(M.STEP, "steps", EVENTS)
@@ -402,10 +430,11 @@ class GaitAnalyzerNode(WalkerNode):
                                       float(msg.pose.pose.position.y), yaw)
 
     def on_part(self, name: str, msg: Any) -> None:
-        parts = self.sync.add(name, msg)
-        report_dropped(self, self.sync)
-        if parts is not None:
-            self.on_frame(parts["track"], M.floor_from_msg(parts["floor"]))
+        ready = self.sync.add(name, msg)
+        report_sync(self, self.sync)
+        for parts in ready:
+            with self.guard("leg_track"):
+                self.on_frame(parts["track"], M.floor_from_msg(parts["floor"]))
 
     def on_frame(self, msg: Any, floor: Any) -> None:
         """One frame: its LegTrack and the FloorPlane with the same stamp.
