@@ -324,41 +324,55 @@ def test_floor_segmentation_rejects_unknown_input(rclpy_context: None) -> None:
         FloorSegmentationNode(parameter_overrides=[rclpy.parameter.Parameter("input", value="cloud")])
 
 
-def test_leg_tracker_holds_frames_until_camera_info(rclpy_context: None) -> None:
-    """Foreground frames completed before the first CameraInfo are tracked once it arrives, not lost."""
-    from walker_gait.bench.tracker import KINECT, gait_state, render_frame
-    from walker_gait.ros.nodes import WAITING_IMAGES, LegTrackerNode
+def make_tracker_node() -> tuple[Any, list[Any]]:
+    """A quick leg_tracker (32 particles, one search round) and the list its JointStates go to."""
+    from walker_gait.ros.nodes import LegTrackerNode
 
-    floor = FloorPlane.from_camera_pose(height=0.70, pitch=0.50)
-    state = gait_state(0.2)
     node = LegTrackerNode(parameter_overrides=[rclpy.parameter.Parameter("n_particles", value=32),
                                                rclpy.parameter.Parameter("init_rounds", value=1)])
     joints: list[Any] = []
     node.pub_joints = joints.append
     node.pub_track = lambda msg: None
     node.pub_markers = lambda msg: None
-    try:
-        def send(stamp: float) -> None:
-            fr = render_frame(state, intrinsics=KINECT, floor=floor, mounting="facing_user",
-                              rng=np.random.default_rng(0), stamp=stamp)
-            header = M.make_header(stamp, "cam")
-            mask = np.isfinite(fr.depth)
-            node.dispatch("foreground/points", M.POINT_CLOUD2, lambda m: node.on_part("points", m),
-                          M.serialize(M.make_pointcloud2(fr.points, header)))
-            node.dispatch("foreground/mask", M.IMAGE, lambda m: node.on_part("mask", m),
-                          M.serialize(M.make_image(mask.astype(np.uint8) * 255, header, encoding="mono8")))
-            node.dispatch("floor_plane", M.FLOOR_PLANE, lambda m: node.on_part("floor", m),
-                          M.serialize(M.make_floor_plane(floor, header)))
+    return node, joints
 
+
+def send_foreground(node: Any, stamp: float, *, parts: tuple[str, ...] = ("points", "mask", "floor")) -> None:
+    """floor_segmentation's ``parts`` of a rendered frame of a standing user, through ``node``'s dispatch path."""
+    from walker_gait.bench.tracker import KINECT, gait_state, render_frame
+
+    floor = FloorPlane.from_camera_pose(height=0.70, pitch=0.50)
+    fr = render_frame(gait_state(0.2), intrinsics=KINECT, floor=floor, mounting="facing_user",
+                      rng=np.random.default_rng(0), stamp=stamp)
+    header = M.make_header(stamp, "cam")
+    if "points" in parts:
+        node.dispatch("foreground/points", M.POINT_CLOUD2, lambda m: node.on_part("points", m),
+                      M.serialize(M.make_pointcloud2(fr.points, header)))
+    if "mask" in parts:
+        node.dispatch("foreground/mask", M.IMAGE, lambda m: node.on_part("mask", m),
+                      M.serialize(M.make_image(np.isfinite(fr.depth).astype(np.uint8) * 255, header,
+                                               encoding="mono8")))
+    if "floor" in parts:
+        node.dispatch("floor_plane", M.FLOOR_PLANE, lambda m: node.on_part("floor", m),
+                      M.serialize(M.make_floor_plane(floor, header)))
+
+
+def test_leg_tracker_holds_frames_until_camera_info(rclpy_context: None) -> None:
+    """Foreground frames completed before the first CameraInfo are tracked once it arrives, not lost."""
+    from walker_gait.bench.tracker import KINECT
+    from walker_gait.ros.nodes import WAITING_IMAGES
+
+    node, joints = make_tracker_node()
+    try:
         for i in range(WAITING_IMAGES + 1):
-            send(1.0 + i / 30)
+            send_foreground(node, 1.0 + i / 30)
         assert joints == []
         assert sum(node._problems.values()) == 1  # the one frame beyond the hold is dropped and counted
         node.dispatch("depth/camera_info", M.CAMERA_INFO, node.on_info,
                       M.serialize(M.make_camera_info(KINECT, M.make_header(1.0, "cam"))))
         assert [M.stamp_to_ns(j.header.stamp) for j in joints] == [
             M.stamp_to_ns(M.make_header(1.0 + i / 30, "cam").stamp) for i in range(1, WAITING_IMAGES + 1)]
-        send(2.0)
+        send_foreground(node, 2.0)
         assert len(joints) == WAITING_IMAGES + 1
     finally:
         node.destroy_node()
@@ -565,39 +579,17 @@ def test_gait_analyzer_counts_a_frame_whose_parts_did_not_all_arrive(rclpy_conte
 def test_leg_tracker_tracks_a_frame_whose_floor_plane_never_arrived(rclpy_context: None) -> None:
     """The floor plane is the part the live graph lost (an input queue overflowing while the tracker was busy): the
     frame is tracked with the latest floor plane, a JointState per image; a frame without its cloud is dropped."""
-    from walker_gait.bench.tracker import KINECT, gait_state, render_frame
-    from walker_gait.ros.nodes import LegTrackerNode
+    from walker_gait.bench.tracker import KINECT
 
-    floor = FloorPlane.from_camera_pose(height=0.70, pitch=0.50)
-    node = LegTrackerNode(parameter_overrides=[rclpy.parameter.Parameter("n_particles", value=32),
-                                               rclpy.parameter.Parameter("init_rounds", value=1)])
-    joints: list[Any] = []
-    node.pub_joints = joints.append
-    node.pub_track = lambda msg: None
-    node.pub_markers = lambda msg: None
+    node, joints = make_tracker_node()
     try:
         node.dispatch("depth/camera_info", M.CAMERA_INFO, node.on_info,
                       M.serialize(M.make_camera_info(KINECT, M.make_header(1.0, "cam"))))
-
-        def send(stamp: float, *, points: bool = True, with_floor: bool = True) -> None:
-            fr = render_frame(gait_state(0.2), intrinsics=KINECT, floor=floor, mounting="facing_user",
-                              rng=np.random.default_rng(0), stamp=stamp)
-            header = M.make_header(stamp, "cam")
-            if points:
-                node.dispatch("foreground/points", M.POINT_CLOUD2, lambda m: node.on_part("points", m),
-                              M.serialize(M.make_pointcloud2(fr.points, header)))
-            node.dispatch("foreground/mask", M.IMAGE, lambda m: node.on_part("mask", m),
-                          M.serialize(M.make_image(np.isfinite(fr.depth).astype(np.uint8) * 255, header,
-                                                   encoding="mono8")))
-            if with_floor:
-                node.dispatch("floor_plane", M.FLOOR_PLANE, lambda m: node.on_part("floor", m),
-                              M.serialize(M.make_floor_plane(floor, header)))
-
-        send(1.0)
-        send(1.0 + 1 / 30, with_floor=False)
-        send(1.0 + 2 / 30)
-        send(1.0 + 3 / 30, points=False)
-        send(1.0 + 4 / 30)
+        send_foreground(node, 1.0)
+        send_foreground(node, 1.0 + 1 / 30, parts=("points", "mask"))
+        send_foreground(node, 1.0 + 2 / 30)
+        send_foreground(node, 1.0 + 3 / 30, parts=("mask", "floor"))
+        send_foreground(node, 1.0 + 4 / 30)
         stamps = [M.stamp_to_ns(j.header.stamp) for j in joints]
         assert stamps == [M.stamp_to_ns(M.make_header(1.0 + i / 30, "cam").stamp) for i in (0, 1, 2, 4)]
         assert node.stand_ins == {"floor": 1} and node.problems == {"incomplete_frame": 1}
