@@ -84,7 +84,6 @@ class WalkerNode(Node):
         super().__init__(name, **kwargs)
         self._problems: Counter[str] = Counter()
         self._stand_ins: Counter[str] = Counter()
-        self._logged: set[str] = set()
         self.frames_ok = 0
         self._diag_pub = self.create_publisher(rclpy_type(M.DIAGNOSTIC_ARRAY), "/diagnostics", DIAGNOSTICS)
         self._diag_timer = self.create_timer(1.0, self._publish_diagnostics)
@@ -142,18 +141,15 @@ class WalkerNode(Node):
 
     def report_problem(self, kind: str, detail: str) -> None:
         """Count a skipped frame; log the first occurrence of each kind (then once per 1000)."""
-        self._problems[kind] += 1
-        n = self._problems[kind]
-        if kind not in self._logged or n % 1000 == 0:
-            self._logged.add(kind)
+        n = _tally(self._problems, kind)
+        if n is not None:
             self.get_logger().error(f"{detail} (frame skipped; {kind} seen {n}x; counted on /diagnostics)")
 
     def report_stand_in(self, kind: str, detail: str) -> None:
         """Count a frame processed with a stand-in for a part that never arrived; log the first of each kind
         (then once per 1000) as a warning."""
-        self._stand_ins[kind] += 1
-        n = self._stand_ins[kind]
-        if n == 1 or n % 1000 == 0:
+        n = _tally(self._stand_ins, kind)
+        if n is not None:
             self.get_logger().warning(f"{detail} ({kind} stood in {n}x; counted on /diagnostics)")
 
     def _publish_diagnostics(self) -> None:
@@ -175,6 +171,14 @@ class WalkerNode(Node):
     @property
     def stand_ins(self) -> dict[str, int]:
         return dict(self._stand_ins)
+
+
+def _tally(counter: Counter[str], kind: str) -> int | None:
+    """Count one ``kind`` in ``counter``; its new count when that is worth a log line (the first, then every
+    1000th), else None."""
+    counter[kind] += 1
+    n = counter[kind]
+    return n if n == 1 or n % 1000 == 0 else None
 
 
 class UndecodableMessage(ValueError):
