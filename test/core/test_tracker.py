@@ -6,6 +6,8 @@ so accuracy here is optimistic; the bench reports the generator-based figures.
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -52,7 +54,7 @@ def test_presets() -> None:
                 {"feet_crossing_sigma": 0.0}, {"hidden_search_share": 1.5}, {"hidden_search_unexplained": 1.0},
                 {"hidden_search_frames": 0}, {"hidden_velocity_damping": -0.1}, {"heel_rise_dorsiflexion": -0.1},
                 {"heel_rise_dorsiflexion": float("nan")}, {"footprint_sigma": 0.0}, {"footprint_sigma_growth": -0.1},
-                {"footprint_max_s": 0.0}):
+                {"footprint_max_s": 0.0}, {"blank_view_share": 0.0}, {"blank_view_share": 1.5}):
         with pytest.raises(ValueError):
             preset("default", **bad)
 
@@ -176,7 +178,6 @@ def test_bad_input_raises() -> None:
 def test_frames_without_a_floor_count_as_without_foreground() -> None:
     """No valid floor (not found yet, or hidden): no walker frame to track in.  Before a track: NO_USER; while
     tracking, the track coasts (DEGRADED, confidence 0, last pose) for ``coast_frames``, then NO_USER."""
-    import dataclasses
 
     s = own_sequence(n_frames=6, rng=np.random.default_rng(1))
     cfg = dataclasses.replace(FAST, coast_frames=2)
@@ -239,6 +240,17 @@ def test_segment_visibility_follows_the_observed_depth() -> None:
     frame = tracker._prepare(no_left.points.astype(float), no_left.depth, floor, hole)
     vis, unsup = tracker._visibility(frame, seg, rad)
     assert np.all(vis[0] < 0.2) and np.all(vis[1, 1:] > 0.8), vis
+    assert unsup.tolist() == [False, False]
+    # the same hole with the image's top rows cut off, down to below the knees (a user close to the camera: the
+    # upper calves leave the image through its top): the points still in the image lie in the hole, so the left
+    # leg is not over nothing either (only its few points out of the image were counted, all of them "nothing")
+    knee_v = KINECT.project(seg[0, [1, 4], 0])[:, 1]
+    cut = int(knee_v.max()) + 25
+    top_cut = dataclasses.replace(KINECT, height=KINECT.height - cut, cy=KINECT.cy - cut)
+    cropped = LegTracker(DEFAULT, top_cut, rng=np.random.default_rng(0))
+    frame = cropped._prepare(no_left.points.astype(float), no_left.depth[cut:], floor, hole[cut:])
+    vis, unsup = cropped._visibility(frame, seg, rad)
+    assert np.all(vis[1, 1:] > 0.7), vis  # the right calf, seen below the cut
     assert unsup.tolist() == [False, False]
 
 
@@ -864,6 +876,33 @@ def test_a_walker_wheel_alone_in_view_is_no_user() -> None:
              for k in range(DEFAULT.lost_frames + 2)]
     assert TrackStatus.NO_USER not in after[: DEFAULT.lost_frames]
     assert after[DEFAULT.lost_frames:] == [TrackStatus.NO_USER] * 2 and tracker.particles is None
+
+
+def test_a_blanked_view_is_coasted_not_fitted_to_what_is_left() -> None:
+    """A shin swinging past the lens, nearer than the sensor's range, blanks the view: the legs' pixels have no
+    depth, and what foreground is left (a walker's rear wheel that the region of interest takes in) is not the
+    user.  With ``blank_view_share`` the track is held through such frames (DEGRADED, confidence 0, the last pose)
+    and goes on from there when the legs are back; without it the legs are fitted to the wheel."""
+    s = own_sequence(n_frames=14, rng=np.random.default_rng(1))
+    floor = s.frames[0].floor
+    wheel = _low_blob(floor, x=(-0.75, -0.55), y=(-0.33, -0.25), top=0.30, n=20000, rng=np.random.default_rng(3))
+    wheel_depth = _depth_image(wheel, KINECT)
+    blank = ~np.isfinite(wheel_depth)  # no depth anywhere but on the wheel
+    assert DEFAULT.blank_view_share < 1.0 and PAPER.blank_view_share == 1.0
+    moved = {}
+    for share in (DEFAULT.blank_view_share, 1.0):
+        tr = LegTracker(dataclasses.replace(FAST, blank_view_share=share), KINECT, rng=np.random.default_rng(0))
+        before = _run(tr, s.frames[:8])[-1]
+        held = [tr.update(stamp=f.stamp, points=wheel, depth_fg=wheel_depth, floor=floor, no_depth=blank)
+                for f in s.frames[8:11]]
+        moved[share] = max(float(np.linalg.norm(p.points - before.points, axis=-1).max()) for p in held)
+        if share < 1.0:
+            assert all(p.status == TrackStatus.DEGRADED and p.confidence == 0.0 for p in held)
+            assert moved[share] == 0.0
+            after = _run(tr, s.frames[11:14])
+            assert all(p.status == TrackStatus.TRACKING for p in after)
+            assert np.mean([np.linalg.norm(p.points - f.gt, axis=-1).mean() for p, f in zip(after, s.frames[11:])]) < 0.08
+    assert moved[1.0] > 0.1, moved
 
 
 def test_legs_leaving_the_image_count_as_legs_whichever_border_is_up() -> None:

@@ -6,7 +6,11 @@ lives in the floor-aligned *body* frame of :mod:`walker_gait.core.leg_model`):
 1. foreground check: fewer than ``min_fg_points`` points, or (``presence_height``, ``default``) a
    foreground that does not show legs → ``NO_USER`` and the particle set is dropped (the next frame
    with legs re-initialises; a track coasts through ``coast_frames`` frames without foreground first, and
-   goes on through ``lost_frames`` frames in a row without legs).  Legs belong to
+   goes on through ``lost_frames`` frames in a row without legs).  A frame whose foreground is left but in which
+   ``blank_view_share`` of the last estimate's calf and foot pixels have no depth is coasted through likewise: a
+   shin swinging past the lens, nearer than the sensor's range, blanks the view and hides both legs, and what
+   foreground is left is not the user (a walker's rear wheel that the auto-centred region of interest took in:
+   the model legs jumped 25 cm onto it, and one re-detection after such a blank exchanged the legs).  Legs belong to
    a body above them, so they rise above knee height or leave the image through the border that is
    "up" for the camera (:meth:`LegTracker.legs_in_view`); a walker's rear wheel in view while its user is
    away does neither, and without the check the tracker fitted both legs to it and the gait analyzer
@@ -80,7 +84,9 @@ lives in the floor-aligned *body* frame of :mod:`walker_gait.core.leg_model`):
    likelihood, where nothing brings it back; with the user's legs close together the other model leg
    explains both legs' foreground, so neither the confidence nor ``min_explained`` fires (the sweep's
    absent-start and occlusion sessions: a model leg held above or beside the image, 40-70 cm off, for
-   seconds).
+   seconds).  Points over pixels without depth count as possibly hidden there, not as over nothing: a leg
+   swinging close to the lens lies mostly in the hole it makes, with its knee above the image's top, and
+   counting only those few points out of the image re-detected the legs mid-swing (and exchanged them).
 
 Left/right identity: the state keeps the left hip at +y (anatomical left) of the right hip
 (``|hip_azimuth| < 0.7``) and the detection assigns blobs by the same axis, so legs cannot
@@ -240,6 +246,7 @@ class TrackerConfig:
     presence_band: float = 0.04  # width of the image border band (fraction of the image) through which legs leave the view
     presence_width: float = 0.04  # m, widest foreground part in that band that shows a leg (a walker's tube is thinner)
     coast_frames: int = 0  # frames a track is held (DEGRADED, confidence 0) through a foreground dropout before it is dropped (0 = at once)
+    blank_view_share: float = 1.0  # a frame in which at least this share of the tracked calves' and feet's pixels (last estimate) has no depth is a blanked view (a shin nearer than the sensor's range hides both legs): the track coasts through it like a dropout, up to `coast_frames` (1 = off, paper)
     track_confidence: float = 0.55  # confidence for TRACKING
     degraded_confidence: float = 0.4  # below: DEGRADED
     lost_confidence: float = 0.25  # below this for `lost_frames` frames: re-initialise
@@ -262,6 +269,8 @@ class TrackerConfig:
         if not (0.0 <= self.hidden_search_share <= 1.0 and 0.0 <= self.hidden_search_unexplained < 1.0):
             raise ValueError("hidden_search_share must be in [0, 1] and hidden_search_unexplained in [0, 1), got "
                              f"{self.hidden_search_share}, {self.hidden_search_unexplained}")
+        if not 0.0 < self.blank_view_share <= 1.0:
+            raise ValueError(f"blank_view_share must be in (0, 1], got {self.blank_view_share}")
         if self.hidden_search_frames < 1:
             raise ValueError(f"hidden_search_frames must be >= 1, got {self.hidden_search_frames}")
         if not 0.0 <= self.hidden_velocity_damping <= 1.0:
@@ -344,6 +353,7 @@ DEFAULT = TrackerConfig(
     hidden_velocity_damping=0.0,
     hidden_leg_first=True,
     coast_frames=15,
+    blank_view_share=0.7,
     presence_height=0.40,
     fine_2d_only=True,
     sigma_root=0.008,
@@ -628,9 +638,14 @@ class LegTracker:
             self.reset()
             self._no_legs_run = 1
             return self._empty_pose(stamp)
-        self._coasted = 0
-
         frame = self._prepare(pts, depth, floor, no_depth if cfg.no_depth_unknown else None)
+        if self._x is not None and self._last_pose is not None and self._coasted < cfg.coast_frames \
+                and self._view_blanked(frame):
+            # the legs' pixels have gone without depth (a leg in front of the lens): whatever foreground is left is
+            # not the user (a wheel the region of interest takes in), so nothing is fitted to it
+            self._coasted += 1
+            return dataclasses.replace(self._last_pose, stamp=stamp, status=TrackStatus.DEGRADED, confidence=0.0)
+        self._coasted = 0
         self._stamp = float(stamp)
         searching = False
         if self._x is None and self._fresh and cfg.single_leg_wait_s > 0:
@@ -698,6 +713,19 @@ class LegTracker:
             return True
         return legs_in_view(floor.height(points), depth_fg, up=floor.normal, intrinsics=self.intrinsics,
                             test=self._presence)
+
+    def _view_blanked(self, frame: _Frame) -> bool:
+        """Whether at least ``blank_view_share`` of the calves' and feet's axis points of the last estimate that
+        project into the image fall on pixels without depth in this frame (see ``blank_view_share``)."""
+        share = self.config.blank_view_share
+        pose = self._last_pose
+        if share >= 1.0 or frame.no_depth is None or pose is None or pose.segments is None or pose.radii is None:
+            return False
+        pts, _ = skeleton_points(pose.segments.reshape(1, 6, 2, 3), pose.radii.reshape(1, 6, 2), n=_VIS_POINTS)
+        inside, _, unknown = frame.cue.sample(pts[0])
+        inside = inside.reshape(2, 3, -1)[:, 1:]
+        n = int(np.count_nonzero(inside))
+        return n > 0 and int(np.count_nonzero(unknown.reshape(2, 3, -1)[:, 1:])) >= share * n
 
     def _empty_pose(self, stamp: float) -> LegPose:
         return LegPose(
@@ -1147,6 +1175,7 @@ class LegTracker:
         inside, obs, unknown = cue.sample(pts)
         seen = inside & (obs > 0) & (obs >= pts[..., 2] - wd - 0.05)
         counted = ~cue.below_cut(pts, wd) if cue.min_height > 0 else np.ones_like(seen)
+        unknown_low = (counted & unknown).reshape(2, 3, -1)[:, 1:].sum(axis=(1, 2))
         counted &= ~unknown  # nothing was measured there: neither seen nor hidden
         n = counted.sum(axis=1)
         vis = np.where(n > 0, (seen & counted).sum(axis=1) / np.maximum(n, 1), 0.0)
@@ -1155,9 +1184,12 @@ class LegTracker:
         # lower leg of a user at the walker is in view (ankles in 100 % of the frames of every synthetic
         # scenario), so a calf and foot that lie over nothing mean the estimate has left the data
         # (the hidden-part machine would otherwise take them out of the likelihood and let them stay there).
+        # Points over pixels without depth may be hidden there (a shin nearer than the sensor's range blanks
+        # the view around it), so they count as held: a leg mostly in such a hole, with a few points out of
+        # the image (its knee above the top), is not over nothing.
         held = inside & (obs > 0) & counted  # observed surface at the point's pixel: it is seen, or hidden behind it
-        n_low = counted.reshape(2, 3, -1)[:, 1:].sum(axis=(1, 2))
-        held_low = held.reshape(2, 3, -1)[:, 1:].sum(axis=(1, 2))
+        n_low = counted.reshape(2, 3, -1)[:, 1:].sum(axis=(1, 2)) + unknown_low
+        held_low = held.reshape(2, 3, -1)[:, 1:].sum(axis=(1, 2)) + unknown_low
         unsupported = (n_low > 0) & (held_low <= _UNSUPPORTED_MAX * n_low)
         return vis.reshape(2, 3), unsupported
 
