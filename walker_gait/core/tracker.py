@@ -1175,21 +1175,20 @@ class LegTracker:
         inside, obs, unknown = cue.sample(pts)
         seen = inside & (obs > 0) & (obs >= pts[..., 2] - wd - 0.05)
         counted = ~cue.below_cut(pts, wd) if cue.min_height > 0 else np.ones_like(seen)
-        unknown_low = (counted & unknown).reshape(2, 3, -1)[:, 1:].sum(axis=(1, 2))
-        counted &= ~unknown  # nothing was measured there: neither seen nor hidden
-        n = counted.sum(axis=1)
-        vis = np.where(n > 0, (seen & counted).sum(axis=1) / np.maximum(n, 1), 0.0)
         # A segment nobody can see is either hidden (observed surface in front of it: the other leg, an
         # object) or it is where the data say there is no leg (out of the image, over background).  The
         # lower leg of a user at the walker is in view (ankles in 100 % of the frames of every synthetic
         # scenario), so a calf and foot that lie over nothing mean the estimate has left the data
         # (the hidden-part machine would otherwise take them out of the likelihood and let them stay there).
-        # Points over pixels without depth may be hidden there (a shin nearer than the sensor's range blanks
-        # the view around it), so they count as held: a leg mostly in such a hole, with a few points out of
-        # the image (its knee above the top), is not over nothing.
-        held = inside & (obs > 0) & counted  # observed surface at the point's pixel: it is seen, or hidden behind it
-        n_low = counted.reshape(2, 3, -1)[:, 1:].sum(axis=(1, 2)) + unknown_low
-        held_low = held.reshape(2, 3, -1)[:, 1:].sum(axis=(1, 2)) + unknown_low
+        # A point holds the leg where its pixel shows observed surface (it is seen, or hidden behind it) or has
+        # no depth (it may be hidden there: a shin nearer than the sensor's range blanks the view around it, and
+        # a leg mostly in such a hole, with a few points out of the image above its knee, is not over nothing).
+        held = inside & counted & ((obs > 0) | unknown)
+        n_low = counted.reshape(2, 3, -1)[:, 1:].sum(axis=(1, 2))
+        held_low = held.reshape(2, 3, -1)[:, 1:].sum(axis=(1, 2))
+        counted &= ~unknown  # nothing was measured there: neither seen nor hidden
+        n = counted.sum(axis=1)
+        vis = np.where(n > 0, (seen & counted).sum(axis=1) / np.maximum(n, 1), 0.0)
         unsupported = (n_low > 0) & (held_low <= _UNSUPPORTED_MAX * n_low)
         return vis.reshape(2, 3), unsupported
 
