@@ -13,6 +13,7 @@ from __future__ import annotations
 import importlib
 import signal
 import sys
+import threading
 import time
 from collections import Counter
 from collections.abc import Callable
@@ -211,14 +212,14 @@ def spin_node(factory: Callable[[], WalkerNode], args: list[str] | None = None) 
 
     argv = sys.argv if args is None else args
     rclpy.init(args=argv, signal_handler_options=SignalHandlerOptions.NO)
-    install_interrupt_handlers()
+    stop = install_interrupt_handlers()
     node: WalkerNode | None = None
     code = 0
     try:
         node = factory()
-        while rclpy.ok():
+        while rclpy.ok() and not stop.is_set():
             rclpy.spin_once(node, timeout_sec=0.1)
-    except (KeyboardInterrupt, ExternalShutdownException):
+    except ExternalShutdownException:
         pass
     except ParameterError:
         code = 2
@@ -239,14 +240,20 @@ def spin_node(factory: Callable[[], WalkerNode], args: list[str] | None = None) 
     return code
 
 
-def install_interrupt_handlers() -> None:
-    """SIGINT and SIGTERM raise KeyboardInterrupt in the main thread (checked every spin timeout)."""
+def install_interrupt_handlers() -> threading.Event:
+    """SIGINT and SIGTERM set the returned event, which the spin loop checks between spins (every spin timeout).
+
+    The handler raised KeyboardInterrupt before; raised wherever the main thread was, it could land inside rclpy's
+    executor (its generator of ready callbacks, which holds the wait set's entities in use), and a node then hung in
+    its shutdown until ``walker-gait run`` killed it (seen once in a full test run: ``bag_replay: -9``)."""
+    stop = threading.Event()
 
     def handler(signum: int, frame: Any) -> None:
-        raise KeyboardInterrupt
+        stop.set()
 
     signal.signal(signal.SIGINT, handler)
     signal.signal(signal.SIGTERM, handler)
+    return stop
 
 
 __all__ = [
