@@ -13,7 +13,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from walker_gait import messages as M
-from walker_gait.core.types import CameraIntrinsics, FloorPlane
+from walker_gait.core.types import CameraIntrinsics, FloorPlane, TrackStatus
 
 pytestmark = pytest.mark.ros
 
@@ -378,6 +378,47 @@ def test_leg_tracker_holds_frames_until_camera_info(rclpy_context: None) -> None
         node.destroy_node()
 
 
+def test_leg_tracker_holds_a_blanked_view(rclpy_context: None) -> None:
+    """The node takes the pixels without depth from floor_segmentation's mask: a frame whose legs' pixels have lost
+    their depth (a shin in front of the lens) and whose foreground is a walker's wheel alone is held, as offline:
+    LegTrack DEGRADED, confidence 0, the last pose."""
+    from walker_gait.bench.tracker import KINECT, gait_state, render_frame
+    from walker_gait.core.leg_model import BodyFrame
+
+    node, joints = make_tracker_node()
+    tracks: list[Any] = []
+    node.pub_track = tracks.append
+    try:
+        node.dispatch("depth/camera_info", M.CAMERA_INFO, node.on_info,
+                      M.serialize(M.make_camera_info(KINECT, M.make_header(1.0, "cam"))))
+        for i in range(6):
+            send_foreground(node, 1.0 + i / 30)
+        assert tracks[-1].status == TrackStatus.TRACKING
+        floor = FloorPlane.from_camera_pose(height=0.70, pitch=0.50)  # as send_foreground's
+        legs = render_frame(gait_state(0.2), intrinsics=KINECT, floor=floor, mounting="facing_user",
+                            rng=np.random.default_rng(0))
+        rng = np.random.default_rng(3)
+        wheel = BodyFrame.from_floor(floor, mounting="facing_user").to_camera(np.column_stack(
+            [rng.uniform(-0.75, -0.55, 5000), rng.uniform(-0.33, -0.25, 5000), rng.uniform(0.03, 0.3, 5000)]))
+        uv = np.round(KINECT.project(wheel)).astype(int)
+        wheel_px = np.zeros((KINECT.height, KINECT.width), bool)
+        ok = (uv[:, 0] >= 0) & (uv[:, 0] < KINECT.width) & (uv[:, 1] >= 0) & (uv[:, 1] < KINECT.height)
+        wheel_px[uv[ok, 1], uv[ok, 0]] = True
+        header = M.make_header(1.2, "cam")
+        node.dispatch("foreground/points", M.POINT_CLOUD2, lambda m: node.on_part("points", m),
+                      M.serialize(M.make_pointcloud2(wheel.astype(np.float32), header)))
+        node.dispatch("foreground/mask", M.IMAGE, lambda m: node.on_part("mask", m),
+                      M.serialize(M.make_foreground_mask(wheel_px, np.isfinite(legs.depth) & ~wheel_px, header)))
+        node.dispatch("floor_plane", M.FLOOR_PLANE, lambda m: node.on_part("floor", m),
+                      M.serialize(M.make_floor_plane(floor, header)))
+        assert len(tracks) == 7
+        assert tracks[-1].status == TrackStatus.DEGRADED and tracks[-1].confidence == 0.0
+        assert list(tracks[-1].thigh_proximal) == list(tracks[-2].thigh_proximal)
+        assert list(tracks[-1].foot_distal) == list(tracks[-2].foot_distal)
+    finally:
+        node.destroy_node()
+
+
 def test_leg_tracker_input_depth_sets_the_queue_and_is_validated(rclpy_context: None) -> None:
     from walker_gait.config import ParameterError
     from walker_gait.ros.base import stream_in
@@ -547,7 +588,7 @@ def test_stamp_sync_stands_in_the_latest_slow_part_for_one_that_never_arrived() 
 def test_gait_analyzer_counts_a_frame_whose_parts_did_not_all_arrive(rclpy_context: None) -> None:
     """A LegTrack whose FloorPlane never came is analysed with the latest floor plane (counted); a FloorPlane
     whose LegTrack never came is reported once and counted on /diagnostics, not lost silently."""
-    from walker_gait.core.types import LegPose, TrackStatus
+    from walker_gait.core.types import LegPose
     from walker_gait.ros.nodes import GaitAnalyzerNode
 
     node = GaitAnalyzerNode()
