@@ -10,7 +10,9 @@ lives in the floor-aligned *body* frame of :mod:`walker_gait.core.leg_model`):
    ``blank_view_share`` of the last estimate's calf and foot pixels have no depth is coasted through likewise: a
    shin swinging past the lens, nearer than the sensor's range, blanks the view and hides both legs, and what
    foreground is left is not the user (a walker's rear wheel that the auto-centred region of interest took in:
-   the model legs jumped 25 cm onto it, and one re-detection after such a blank exchanged the legs).  Legs belong to
+   the model legs jumped 25 cm onto it, and one re-detection after such a blank exchanged the legs); such a frame
+   does not count towards ``lost_frames`` without legs either (a leg in front of the lens is a user at the walker,
+   and a close user's legs often fail the check below: their thighs nearer than the sensor's range).  Legs belong to
    a body above them, so they rise above knee height or leave the image through the border that is
    "up" for the camera (:meth:`LegTracker.legs_in_view`); a walker's rear wheel in view while its user is
    away does neither, and without the check the tracker fitted both legs to it and the gait analyzer
@@ -621,30 +623,34 @@ class LegTracker:
         # is no walker frame to track in and no region of interest, so the frame counts as one without foreground
         no_floor = not (floor.valid and np.all(np.isfinite(floor.normal)) and math.isfinite(floor.offset))
 
+        holding = self._x is not None and self._last_pose is not None and self._coasted < cfg.coast_frames
         if no_floor or pts.shape[0] < cfg.min_fg_points:
-            if self._x is not None and self._last_pose is not None and self._coasted < cfg.coast_frames:
+            if holding:
                 # a brief dropout (a leg in front of the lens, nearer than the sensor's range, blanks the
                 # view): hold the track instead of re-detecting from whatever partial view comes next
-                self._coasted += 1
-                return dataclasses.replace(self._last_pose, stamp=stamp, status=TrackStatus.DEGRADED,
-                                           confidence=0.0)
+                return self._coast(stamp)
             self.reset()
             return self._empty_pose(stamp)
+        legs = self.legs_in_view(pts, depth, floor)
+        frame = None
+        if holding:
+            frame = self._prepare(pts, depth, floor, no_depth if cfg.no_depth_unknown else None)
+            if self._view_blanked(frame):
+                # the legs' pixels have gone without depth (a leg in front of the lens): whatever foreground is left
+                # is not the user (a wheel the region of interest takes in), so nothing is fitted to it; and a leg
+                # in front of the lens is a user at the walker, whatever the rest shows (no "no legs" count)
+                self._no_legs_run = 0
+                return self._coast(stamp)
         # a track ends once `lost_frames` frames in a row show no legs (the user has left, a wheel stays in
         # view); until then it goes on as usual, so a frame whose legs happen not to pass the check (they
         # reach neither knee height nor the image border for an instant) costs nothing
-        self._no_legs_run = 0 if self.legs_in_view(pts, depth, floor) else self._no_legs_run + 1
+        self._no_legs_run = 0 if legs else self._no_legs_run + 1
         if self._no_legs_run > (cfg.lost_frames if self.status != TrackStatus.NO_USER else 0):
             self.reset()
             self._no_legs_run = 1
             return self._empty_pose(stamp)
-        frame = self._prepare(pts, depth, floor, no_depth if cfg.no_depth_unknown else None)
-        if self._x is not None and self._last_pose is not None and self._coasted < cfg.coast_frames \
-                and self._view_blanked(frame):
-            # the legs' pixels have gone without depth (a leg in front of the lens): whatever foreground is left is
-            # not the user (a wheel the region of interest takes in), so nothing is fitted to it
-            self._coasted += 1
-            return dataclasses.replace(self._last_pose, stamp=stamp, status=TrackStatus.DEGRADED, confidence=0.0)
+        if frame is None:
+            frame = self._prepare(pts, depth, floor, no_depth if cfg.no_depth_unknown else None)
         self._coasted = 0
         self._stamp = float(stamp)
         searching = False
@@ -713,6 +719,12 @@ class LegTracker:
             return True
         return legs_in_view(floor.height(points), depth_fg, up=floor.normal, intrinsics=self.intrinsics,
                             test=self._presence)
+
+    def _coast(self, stamp: float) -> LegPose:
+        """The last pose held through a frame that cannot be tracked (DEGRADED, confidence 0; ``coast_frames``)."""
+        assert self._last_pose is not None
+        self._coasted += 1
+        return dataclasses.replace(self._last_pose, stamp=stamp, status=TrackStatus.DEGRADED, confidence=0.0)
 
     def _view_blanked(self, frame: _Frame) -> bool:
         """Whether at least ``blank_view_share`` of the calves' and feet's axis points of the last estimate that
