@@ -337,24 +337,38 @@ def make_tracker_node() -> tuple[Any, list[Any]]:
     return node, joints
 
 
-def send_foreground(node: Any, stamp: float, *, parts: tuple[str, ...] = ("points", "mask", "floor")) -> None:
-    """floor_segmentation's ``parts`` of a rendered frame of a standing user, through ``node``'s dispatch path."""
+STANDING_FLOOR = FloorPlane.from_camera_pose(height=0.70, pitch=0.50)
+"""The floor of :func:`standing_frame`'s camera."""
+
+
+def standing_frame(stamp: float = 0.0) -> Any:
+    """A rendered frame (``bench.tracker.Frame``) of a user standing before a Kinect over :data:`STANDING_FLOOR`."""
     from walker_gait.bench.tracker import KINECT, gait_state, render_frame
 
-    floor = FloorPlane.from_camera_pose(height=0.70, pitch=0.50)
-    fr = render_frame(gait_state(0.2), intrinsics=KINECT, floor=floor, mounting="facing_user",
-                      rng=np.random.default_rng(0), stamp=stamp)
+    return render_frame(gait_state(0.2), intrinsics=KINECT, floor=STANDING_FLOOR, mounting="facing_user",
+                        rng=np.random.default_rng(0), stamp=stamp)
+
+
+def dispatch_parts(node: Any, stamp: float, *, points: np.ndarray, mask: np.ndarray, no_depth: np.ndarray | None = None,
+                   parts: tuple[str, ...] = ("points", "mask", "floor")) -> None:
+    """floor_segmentation's ``parts`` of one frame (foreground ``points``, its ``mask`` and pixels without depth,
+    :data:`STANDING_FLOOR`) through ``node``'s dispatch path."""
     header = M.make_header(stamp, "cam")
     if "points" in parts:
         node.dispatch("foreground/points", M.POINT_CLOUD2, lambda m: node.on_part("points", m),
-                      M.serialize(M.make_pointcloud2(fr.points, header)))
+                      M.serialize(M.make_pointcloud2(points, header)))
     if "mask" in parts:
         node.dispatch("foreground/mask", M.IMAGE, lambda m: node.on_part("mask", m),
-                      M.serialize(M.make_image(np.isfinite(fr.depth).astype(np.uint8) * 255, header,
-                                               encoding="mono8")))
+                      M.serialize(M.make_foreground_mask(mask, no_depth, header)))
     if "floor" in parts:
         node.dispatch("floor_plane", M.FLOOR_PLANE, lambda m: node.on_part("floor", m),
-                      M.serialize(M.make_floor_plane(floor, header)))
+                      M.serialize(M.make_floor_plane(STANDING_FLOOR, header)))
+
+
+def send_foreground(node: Any, stamp: float, *, parts: tuple[str, ...] = ("points", "mask", "floor")) -> None:
+    """floor_segmentation's ``parts`` of :func:`standing_frame`, through ``node``'s dispatch path."""
+    fr = standing_frame(stamp)
+    dispatch_parts(node, stamp, points=fr.points, mask=np.isfinite(fr.depth), parts=parts)
 
 
 def test_leg_tracker_holds_frames_until_camera_info(rclpy_context: None) -> None:
@@ -382,7 +396,7 @@ def test_leg_tracker_holds_a_blanked_view(rclpy_context: None) -> None:
     """The node takes the pixels without depth from floor_segmentation's mask: a frame whose legs' pixels have lost
     their depth (a shin in front of the lens) and whose foreground is a walker's wheel alone is held, as offline:
     LegTrack DEGRADED, confidence 0, the last pose."""
-    from walker_gait.bench.tracker import KINECT, gait_state, render_frame
+    from walker_gait.bench.tracker import KINECT
     from walker_gait.core.leg_model import BodyFrame
 
     node, joints = make_tracker_node()
@@ -394,23 +408,16 @@ def test_leg_tracker_holds_a_blanked_view(rclpy_context: None) -> None:
         for i in range(6):
             send_foreground(node, 1.0 + i / 30)
         assert tracks[-1].status == TrackStatus.TRACKING
-        floor = FloorPlane.from_camera_pose(height=0.70, pitch=0.50)  # as send_foreground's
-        legs = render_frame(gait_state(0.2), intrinsics=KINECT, floor=floor, mounting="facing_user",
-                            rng=np.random.default_rng(0))
+        legs = standing_frame()
         rng = np.random.default_rng(3)
-        wheel = BodyFrame.from_floor(floor, mounting="facing_user").to_camera(np.column_stack(
+        wheel = BodyFrame.from_floor(STANDING_FLOOR, mounting="facing_user").to_camera(np.column_stack(
             [rng.uniform(-0.75, -0.55, 5000), rng.uniform(-0.33, -0.25, 5000), rng.uniform(0.03, 0.3, 5000)]))
         uv = np.round(KINECT.project(wheel)).astype(int)
         wheel_px = np.zeros((KINECT.height, KINECT.width), bool)
         ok = (uv[:, 0] >= 0) & (uv[:, 0] < KINECT.width) & (uv[:, 1] >= 0) & (uv[:, 1] < KINECT.height)
         wheel_px[uv[ok, 1], uv[ok, 0]] = True
-        header = M.make_header(1.2, "cam")
-        node.dispatch("foreground/points", M.POINT_CLOUD2, lambda m: node.on_part("points", m),
-                      M.serialize(M.make_pointcloud2(wheel.astype(np.float32), header)))
-        node.dispatch("foreground/mask", M.IMAGE, lambda m: node.on_part("mask", m),
-                      M.serialize(M.make_foreground_mask(wheel_px, np.isfinite(legs.depth) & ~wheel_px, header)))
-        node.dispatch("floor_plane", M.FLOOR_PLANE, lambda m: node.on_part("floor", m),
-                      M.serialize(M.make_floor_plane(floor, header)))
+        dispatch_parts(node, 1.2, points=wheel.astype(np.float32), mask=wheel_px,
+                       no_depth=np.isfinite(legs.depth) & ~wheel_px)
         assert len(tracks) == 7
         assert tracks[-1].status == TrackStatus.DEGRADED and tracks[-1].confidence == 0.0
         assert list(tracks[-1].thigh_proximal) == list(tracks[-2].thigh_proximal)
