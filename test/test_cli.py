@@ -122,9 +122,11 @@ def test_cli_limits_blas_threads_unless_the_user_chose() -> None:
     assert out.stdout.split() == ["2", "1"]
 
 
-def test_upside_down_camera_warns_and_up_hint_fixes_it(tmp_path: Path) -> None:
-    """A camera mounted upside down: the floor is not found around the default up direction; `process` still
-    writes every output and warns, naming the file and the parameter; with that parameter set, steps are found."""
+def test_upside_down_camera_is_found_by_auto_flip_and_without_it_warns(tmp_path: Path) -> None:
+    """A camera mounted upside down: the floor is not found around the default up direction; ``floor.auto_flip``
+    (default) finds it around the half-turned one within a few frames, says so, records it in the metadata, and the
+    steps are found.  With auto_flip off, `process` still writes every output and warns, naming the file and the
+    parameter; with up_hint set by hand the floor is there from the first frame."""
     import numpy as np
 
     from walker_gait.synth import SessionSpec, generate_session, write_session
@@ -132,19 +134,31 @@ def test_upside_down_camera_warns_and_up_hint_fixes_it(tmp_path: Path) -> None:
     spec = SessionSpec.preset("normal", duration=4.0, scale=0.5, cam_roll_deg=(180.0, 180.0))
     path = tmp_path / "upside_down.mcap"
     write_session(generate_session(spec, rng=np.random.default_rng(3)), path, fmt="mcap", encoding="16UC1")
-    plain = walker_gait("process", str(path), "--out", str(tmp_path / "plain"), "--quiet")
+
+    def steps(out: str) -> int:
+        with open(tmp_path / out / "steps.csv", newline="") as fh:
+            return len(list(csv.reader(fh))) - 1
+
+    auto = walker_gait("process", str(path), "--out", str(tmp_path / "auto"), "--quiet")
+    assert auto.returncode == 0, auto.stderr
+    assert "no floor plane found" not in auto.stderr
+    assert "upside down" in auto.stderr and str(path) in auto.stderr
+    meta = json.loads((tmp_path / "auto" / "summary.json").read_text())["metadata"]
+    assert meta["floor_up_hint"] == [0.0, 1.0, 0.0] and meta["frames_without_floor"] <= 10
+    assert steps("auto") >= 3
+    plain = walker_gait("process", str(path), "--out", str(tmp_path / "plain"), "--quiet",
+                        "--param", "floor_segmentation.floor.auto_flip=false")
     assert plain.returncode == 0, plain.stderr
     assert "no floor plane found" in plain.stderr and str(path) in plain.stderr and "up_hint" in plain.stderr
     meta = json.loads((tmp_path / "plain" / "summary.json").read_text())["metadata"]
-    assert meta["frames_without_floor"] > meta["frames_processed"] // 2
+    assert meta["frames_without_floor"] > meta["frames_processed"] // 2 and meta["floor_up_hint"] == [0.0, -1.0, 0.0]
     fixed = walker_gait("process", str(path), "--out", str(tmp_path / "fixed"), "--quiet",
                         "--param", "floor_segmentation.floor.up_hint=[0.0,1.0,0.0]")
     assert fixed.returncode == 0, fixed.stderr
-    assert "no floor plane found" not in fixed.stderr
+    assert "no floor plane found" not in fixed.stderr and "upside down" not in fixed.stderr
     meta = json.loads((tmp_path / "fixed" / "summary.json").read_text())["metadata"]
-    assert meta["frames_without_floor"] == 0
-    with open(tmp_path / "fixed" / "steps.csv", newline="") as fh:
-        assert len(list(csv.reader(fh))) - 1 >= 3
+    assert meta["frames_without_floor"] == 0 and meta["floor_up_hint"] == [0.0, 1.0, 0.0]
+    assert steps("fixed") >= 3
 
 
 def test_recording_without_calibration_fails_clearly_and_camera_info_yaml_fixes_it(tmp_path: Path) -> None:

@@ -372,6 +372,24 @@ def _can_fork() -> bool:
     return "fork" in mp.get_all_start_methods() and not mp.current_process().daemon
 
 
+def _floor_up_hint(configured: Any, floors: list[FloorPlane]) -> tuple[tuple[float, float, float], bool]:
+    """The up direction around which the recording's floor was found (``floor.up_hint``, or the half-turned one of
+    ``floor.auto_flip``: a camera mounted upside down) and whether it is the half-turned one.  The segmenter may
+    run in another process (``prefetch``), so this is read off the floor planes: the last valid one's normal lies
+    nearer the one than the other."""
+    from walker_gait.core.segmentation import flipped_up_hint
+
+    x, y, z = (float(v) for v in configured)
+    hint = (x, y, z)
+    flipped_hint = flipped_up_hint(hint)
+    last = next((f for f in reversed(floors) if f.valid), None)
+    if last is None:
+        return hint, False
+    n = np.asarray(last.normal, dtype=np.float64)
+    flipped = float(n @ np.asarray(flipped_hint)) > float(n @ np.asarray(hint))  # both hints have the same length
+    return (flipped_hint if flipped else hint), flipped
+
+
 def _prepared_frames(recording: Any, proc: FrameProcessor, *, prefetch: int) -> Iterator[tuple[Any, Any]]:
     """``(frame, PreparedFrame or per-frame error)`` in recording order.
 
@@ -519,11 +537,15 @@ def process_recording(path: Path, out_dir: Path, *, options: PipelineOptions | N
         raise RecordingError(f"{path}: no frame could be processed ({dict(skipped) or 'no depth frames'}){hint}")
     summary = _summary_dict(proc.analyzer.summary(window_s=None))
     no_floor = sum(1 for f in floors if not f.valid)
+    up_hint, flipped = _floor_up_hint(options.segmenter.floor.up_hint, floors)
+    if flipped:
+        print(f"walker-gait: note: {path}: the floor was found with the camera upside down (floor.up_hint "
+              f"{list(up_hint)} instead of {list(options.segmenter.floor.up_hint)}; floor.auto_flip)", file=sys.stderr)
     if no_floor > processed // 2:
         print(f"walker-gait: warning: {path}: no floor plane found in {no_floor} of {processed} frames, so the legs "
-              "could not be tracked there; if the camera is mounted rolled or upside down, set the floor's up "
-              "direction in the camera frame, e.g. --param floor_segmentation.floor.up_hint=[0.0,1.0,0.0] "
-              "(default [0.0,-1.0,0.0], image rows pointing down)", file=sys.stderr)
+              "could not be tracked there; if the camera is mounted rolled, set the floor's up direction in the "
+              "camera frame, e.g. --param floor_segmentation.floor.up_hint=[1.0,0.0,0.0] (default [0.0,-1.0,0.0], "
+              "image rows pointing down; floor.auto_flip also tries [0.0,1.0,0.0], a camera upside down)", file=sys.stderr)
     wall_s = time.perf_counter() - t_start
     timings = {k: v / max(processed, 1) for k, v in timing_sum.items()}
     metadata = {
@@ -534,6 +556,7 @@ def process_recording(path: Path, out_dir: Path, *, options: PipelineOptions | N
         "frames_processed": processed,
         "frames_skipped": dict(skipped),
         "frames_without_floor": no_floor,
+        "floor_up_hint": list(up_hint),
         "walker_gait_version": __version__,
         "processing_time_s": round(wall_s, 3),
         "depth_topic": recording.depth_topic,

@@ -41,7 +41,9 @@ from walker_gait.core.segmentation import (
     SegmenterConfig,
     StaticMaskConfig,
     StaticStructureMask,
+    FLIP_CONFIRM_ATTEMPTS,
     fit_floor_ransac,
+    flipped_up_hint,
     thin_parts,
 )
 from walker_gait.core.types import CameraIntrinsics, FloorPlane
@@ -114,6 +116,61 @@ def test_floor_is_the_lowest_well_supported_plane(max_below: float) -> None:
     plane = fit_floor_ransac(pts, rng=rng, config=cfg)
     assert plane.valid
     assert abs(plane.offset - 0.5) < 0.01 and angle_deg(plane.normal, floor.normal) < 1.0
+
+
+def _upside_down(points: np.ndarray) -> np.ndarray:
+    """Camera-frame points of the same view from the camera turned half a turn about its optical axis."""
+    return points * np.array([-1.0, -1.0, 1.0], dtype=points.dtype)
+
+
+def test_floor_tracker_finds_the_floor_of_a_camera_mounted_upside_down() -> None:
+    """``auto_flip``: until a floor was ever found, the half-turned ``up_hint`` is tried too and taken, for good, once
+    it alone has found a floor in FLIP_CONFIRM_ATTEMPTS attempts in a row; the plane is the true one (normal up).
+    Off, the tracker never finds that floor (the old behaviour, which needed ``up_hint`` set by hand)."""
+    rng = np.random.default_rng(5)
+    scene = scene_cached(gait_legs(0), camera_height=0.5, pitch_deg=30.0)
+    pts = _upside_down(PROJ.points(scene.depth))
+    true_up = scene.floor.normal * np.array([-1.0, -1.0, 1.0])
+    cfg = FloorConfig()
+    tracker = FloorTracker(cfg, rng=np.random.default_rng(1))
+    frames_to_floor = None
+    for i in range(20):
+        plane = tracker.update(pts)
+        if plane.valid and frames_to_floor is None:
+            frames_to_floor = i + 1
+    assert tracker.flipped and tracker.config.up_hint == (0.0, 1.0, 0.0)
+    # attempts at frames 1, 1 + retry_interval, ...: the third finds it
+    assert frames_to_floor == 1 + (FLIP_CONFIRM_ATTEMPTS - 1) * cfg.retry_interval
+    assert angle_deg(plane.normal, true_up) < 0.3 and abs(plane.offset - 0.5) < 0.005
+    off = FloorTracker(FloorConfig(auto_flip=False), rng=np.random.default_rng(1))
+    assert not any(off.update(pts).valid for _ in range(20)) and not off.flipped
+    assert flipped_up_hint((0.1, -1.0, 0.2)) == (-0.1, 1.0, 0.2)
+    del rng
+
+
+def test_floor_tracker_does_not_flip_once_it_has_found_the_floor_nor_for_a_passing_plane() -> None:
+    """A camera mounted upright: the half-turned search never changes a plane or the random stream (same planes
+    with ``auto_flip`` on and off); once a floor was found, frames that show only an upside-down floor do not turn
+    the tracker over; a half-turned floor seen in fewer than FLIP_CONFIRM_ATTEMPTS attempts in a row (a table top
+    from below, one frame) is not taken."""
+    rng = np.random.default_rng(6)
+    frames = [PROJ.points(noisy_depth(scene_cached(gait_legs(i), camera_height=0.5, pitch_deg=30.0), rng))
+              for i in range(12)]
+    planes = {}
+    for flip in (True, False):
+        tracker = FloorTracker(FloorConfig(auto_flip=flip), rng=np.random.default_rng(2))
+        planes[flip] = [tracker.update(p) for p in frames + [_upside_down(f) for f in frames]]
+        assert not tracker.flipped
+    for a, b in zip(planes[True], planes[False]):
+        assert a.valid == b.valid and np.array_equal(a.normal, b.normal) and a.offset == b.offset
+    nan_pts = np.full_like(frames[0], np.nan)
+    cfg = FloorConfig()
+    tracker = FloorTracker(cfg, rng=np.random.default_rng(3))
+    pattern = ([_upside_down(frames[0])] + [nan_pts] * (cfg.retry_interval - 1)) * (FLIP_CONFIRM_ATTEMPTS - 1)
+    pattern += [nan_pts] * cfg.retry_interval  # an attempt without any floor ends the run
+    for p in pattern * 3:
+        assert not tracker.update(p).valid
+    assert not tracker.flipped
 
 
 def test_wall_only_is_not_a_floor_and_garbage_is_safe() -> None:

@@ -277,6 +277,41 @@ def test_floor_segmentation_warns_once_per_floorless_stretch(rclpy_context: None
         node.destroy_node()
 
 
+def test_floor_segmentation_finds_the_floor_of_a_camera_upside_down_and_says_so_once(rclpy_context: None) -> None:
+    """The same view from a camera turned half a turn about its optical axis: with the default floor.up_hint the
+    node finds the floor through floor.auto_flip (FLIP_CONFIRM_ATTEMPTS attempts), publishes it with its normal up
+    (image rows up: +y) and logs the turned up_hint once; no floorless warning."""
+    from walker_gait.core.depth import DepthProjector, decode_depth
+    from walker_gait.core.segmentation import FLIP_CONFIRM_ATTEMPTS, FloorConfig
+    from walker_gait.ros.nodes import FloorSegmentationNode
+
+    node = FloorSegmentationNode(parameter_overrides=[rclpy.parameter.Parameter("input", value="points")])
+    floors: list[Any] = []
+    node.pub_fg = node.pub_mask = lambda msg: None
+    node.pub_floor = floors.append
+    logger = FakeLogger()
+    infos: list[str] = []
+    warnings: list[str] = []
+    logger.info = infos.append  # type: ignore[attr-defined]
+    logger.warning = warnings.append  # type: ignore[method-assign]
+    node.get_logger = lambda: logger
+    try:
+        proj = DepthProjector()
+        proj.set_intrinsics(INTR)
+        depth = decode_depth(good_depth().tobytes(), encoding="16UC1", width=64, height=48, step=128, is_bigendian=False)
+        turned = proj.points(depth) * np.array([-1.0, -1.0, 1.0], np.float32)
+        n_frames = 1 + FLIP_CONFIRM_ATTEMPTS * FloorConfig().retry_interval
+        for k in range(n_frames):
+            cloud = M.serialize(M.make_pointcloud2(turned, M.make_header(1.0 + k / 30, "cam")))
+            node.dispatch("points", M.POINT_CLOUD2, node.on_cloud, cloud)
+        normal = np.array([floors[-1].a, floors[-1].b, floors[-1].c])
+        assert floors[-1].valid and normal[1] > 0.5
+        assert not floors[0].valid  # the first attempt alone does not turn the camera over
+        assert len(infos) == 1 and "upside down" in infos[0] and not warnings
+    finally:
+        node.destroy_node()
+
+
 def test_floor_segmentation_reads_depth_like_the_chain_through_points(rclpy_context: None) -> None:
     """`input: depth` (default) gives the same outputs as depth_to_cloud → `input: points`, and holds early images."""
     from walker_gait.ros.nodes import FloorSegmentationNode

@@ -67,6 +67,11 @@ def section_segmentation(seed: int) -> list[str]:
     # the walker rocking on its wheels (1 deg RMS pitch and roll): does the floor follow it frame by frame?
     rock = run_segmentation_bench(rng=np.random.default_rng(seed), rocking_deg=1.0)
     keys.update({f"{k}_rocking_1deg": v for k, v in rock.items() if k.startswith("floor_") and isinstance(v, (int, float))})
+    # the camera mounted upside down with the default floor.up_hint: floor.auto_flip's search (frames without a
+    # floor at the start) and the floor and legs once found
+    flip = run_segmentation_bench(rng=np.random.default_rng(seed), roll_deg=180.0)
+    keys.update({f"{k}_upside_down": v for k, v in flip.items()
+                 if (k.startswith("floor_") or k == "leg_kept_final_pct") and isinstance(v, (int, float))})
     lines = ["## Depth decoding + back-projection + floor + ROI (640x480, one core)", "",
              "| measure | value |", "|---|---|"]
     lines += [f"| {k} | {f(float(v), 3)} |" for k, v in keys.items()]

@@ -87,6 +87,10 @@ class FloorConfig:
     """Approximate up direction in the camera optical frame (need not be unit length)."""
     max_tilt_deg: float = 70.0
     """Max angle between a candidate floor normal and ``up_hint`` (deg); walls (~90°) are rejected."""
+    auto_flip: bool = True
+    """Until a floor was ever found, also search around ``up_hint`` turned half a turn about the optical axis (a
+    camera mounted upside down); that orientation is taken, for good, once it alone finds a floor in
+    ``FLIP_CONFIRM_ATTEMPTS`` attempts in a row (``FloorTracker.flipped``)."""
     min_camera_height: float = 0.1
     """Plausible camera heights above the floor (m), lower bound."""
     max_camera_height: float = 3.0
@@ -339,6 +343,28 @@ def _angle_deg(n1: F64, n2: F64) -> float:
     return math.degrees(math.acos(float(np.clip(n1 @ n2, -1.0, 1.0))))
 
 
+FLIP_CONFIRM_ATTEMPTS = 3
+"""RANSAC attempts in a row in which only the half-turned ``up_hint`` finds a floor before :class:`FloorTracker`
+takes it (``FloorConfig.auto_flip``): one frame's plane could be a ceiling or a table top seen from below."""
+
+
+def _child_rng(rng: np.random.Generator) -> np.random.Generator:
+    """An independent Generator derived from ``rng`` without drawing from it (``Generator.spawn``; a Generator
+    built without a seed sequence gets one seeded from its bit generator's state instead)."""
+    try:
+        return rng.spawn(1)[0]
+    except (TypeError, ValueError):
+        state = repr(rng.bit_generator.state).encode()
+        return np.random.default_rng(np.frombuffer(state[: len(state) // 4 * 4], dtype=np.uint32))
+
+
+def flipped_up_hint(up_hint: tuple[float, float, float]) -> tuple[float, float, float]:
+    """``up_hint`` turned half a turn about the optical axis (+z): the up direction of the camera mounted upside
+    down."""
+    x, y, z = (float(v) for v in up_hint)
+    return (0.0 - x, 0.0 - y, z)  # 0.0 - 0.0 is 0.0, where -0.0 would be written "-0.0"
+
+
 _FOLLOW_WIDEN = 3.0
 """Band factor of the first least-squares pass with which :class:`FloorTracker` follows a moving floor."""
 
@@ -377,6 +403,12 @@ class FloorTracker:
         self._ref_support = 0.0
         self._ref_rms = 0.0
         self._still: tuple[F64, float] | None = None  # the still walker's floor (normal, offset), see reference_frames
+        self.flipped = False  # the floor was found around the half-turned up_hint (auto_flip), which is used since
+        self._ever_found = False
+        self._flip_run = 0  # attempts in a row in which only the half-turned up_hint found a floor
+        # the half-turned search draws from a child stream (spawning leaves rng's own stream as it is), so a camera
+        # mounted upright sees the same random numbers with auto_flip on or off
+        self._flip_rng = _child_rng(rng)
         self.last: FloorPlane = self.plane  # the plane :meth:`update` returned last (with anchor and heading)
 
     def reset(self) -> None:
@@ -419,6 +451,21 @@ class FloorTracker:
         if not plane.valid:
             self.ransac_failures += 1
             self._since_failure = 0
+        return plane
+
+    def _try_flipped(self, pts: F64) -> FloorPlane:
+        """After a failed attempt before any floor was found: the floor around the half-turned ``up_hint``, taken
+        (and the tracker's ``up_hint`` with it) once it has been found in ``FLIP_CONFIRM_ATTEMPTS`` attempts in a
+        row; otherwise an invalid plane."""
+        flipped = replace(self.config, up_hint=flipped_up_hint(self.config.up_hint))
+        plane = fit_floor_ransac(pts, rng=self._flip_rng, config=flipped)
+        self._flip_run = self._flip_run + 1 if plane.valid else 0
+        if self._flip_run < FLIP_CONFIRM_ATTEMPTS:
+            return invalid_floor(self.config)
+        self.config = flipped
+        up = np.asarray(flipped.up_hint, dtype=np.float64)
+        self._up = up / np.linalg.norm(up)
+        self.flipped = True
         return plane
 
     def _may_retry(self) -> bool:
@@ -515,8 +562,11 @@ class FloorTracker:
             self.refit_this_frame = True
             pts_r = self._subsample(points, cfg.sample_stride)
             plane = self._run_ransac(pts_r)
+            if not plane.valid and cfg.auto_flip and not self._ever_found:
+                plane = self._try_flipped(pts_r)
             self.floor_visible = plane.valid
             if plane.valid:
+                self._ever_found = True
                 self._adopt(plane, *self._check_set(points))
             return self.plane
 

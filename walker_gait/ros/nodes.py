@@ -184,6 +184,7 @@ class FloorSegmentationNode(WalkerNode):
         seed = int(self.declare_parameter("seed", 0).value)
         self.segmenter = Segmenter(config, rng=stage_rng(seed, "floor_segmentation"))
         self._no_floor = 0  # consecutive frames without a floor
+        self._told_flip = False  # the half-turned up_hint (floor.auto_flip) was logged
         self.pub_fg = self.raw_publisher(M.POINT_CLOUD2, "foreground/points", STREAM)
         self.pub_mask = self.raw_publisher(M.IMAGE, "foreground/mask", STREAM)
         self.pub_floor = self.raw_publisher(M.FLOOR_PLANE, "floor_plane", STREAM)
@@ -231,8 +232,15 @@ class FloorSegmentationNode(WalkerNode):
         if self._no_floor == NO_FLOOR_WARN_FRAMES:  # once per floorless stretch
             self.get_logger().warning(
                 f"no floor plane found in the last {NO_FLOOR_WARN_FRAMES} frames: the legs cannot be tracked (leg_track "
-                "says NO_USER); if the camera is mounted rolled or upside down, set floor.up_hint (the floor's up "
-                "direction in the camera frame, default [0.0, -1.0, 0.0]; upside down: [0.0, 1.0, 0.0])")
+                "says NO_USER); if the camera is mounted rolled, set floor.up_hint (the floor's up direction in the "
+                "camera frame, default [0.0, -1.0, 0.0]; upside down: [0.0, 1.0, 0.0], which floor.auto_flip also "
+                "tries until a floor was found)")
+        tracker = self.segmenter.floor_tracker
+        if tracker.flipped and not self._told_flip:
+            self._told_flip = True
+            self.get_logger().info(
+                f"the floor was found with the camera upside down: floor.up_hint {list(tracker.config.up_hint)} from "
+                "now on (floor.auto_flip; set floor.up_hint so to skip the search)")
         self.pub_floor(M.make_floor_plane(seg.floor, header))
         self.pub_mask(M.make_foreground_mask(seg.mask, seg.no_depth, header))
         self.pub_fg(M.make_pointcloud2(seg.points, header))
