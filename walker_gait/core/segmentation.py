@@ -349,13 +349,12 @@ takes it (``FloorConfig.auto_flip``): one frame's plane could be a ceiling or a 
 
 
 def _child_rng(rng: np.random.Generator) -> np.random.Generator:
-    """An independent Generator derived from ``rng`` without drawing from it (``Generator.spawn``; a Generator
-    built without a seed sequence gets one seeded from its bit generator's state instead)."""
+    """An independent Generator derived from ``rng`` without drawing from it (``Generator.spawn``); ``rng`` itself
+    where its bit generator cannot spawn (no seed sequence)."""
     try:
         return rng.spawn(1)[0]
-    except (TypeError, ValueError):
-        state = repr(rng.bit_generator.state).encode()
-        return np.random.default_rng(np.frombuffer(state[: len(state) // 4 * 4], dtype=np.uint32))
+    except TypeError:
+        return rng
 
 
 def flipped_up_hint(up_hint: tuple[float, float, float]) -> tuple[float, float, float]:
