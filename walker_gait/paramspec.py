@@ -50,11 +50,12 @@ NODE_PARAMS: dict[str, list[tuple[str, Any, str]]] = {
         ("input_depth", 10, "queue depth of the three synchronised inputs: it absorbs bursts in which the tracker "
                             "is slower than the camera; small = track the newest frames (low latency, frames "
                             "skipped in every burst), large = work through the queued frames (none skipped, more "
-                            "latency, bounded by depth / rate); measured with the default preset (192 particles) on a 30 Hz "
-                            "replay of a 10 s 640x480 session on the 2-core machine (compiled likelihood kernels): "
-                            "2 / 5 / 10 → 82 / 99 / 99 % of frames tracked, median latency 37 / 56 / 52 ms (host load "
-                            "varies between runs: `make bench`'s run at 10 gave 55 ms; one or two frames in 300 are "
-                            "occasionally lost between floor_segmentation and leg_tracker even at 10)"),
+                            "latency, bounded by depth / rate); measured with the default preset (192 particles, two annealing "
+                            "layers then) on a 30 Hz replay of a 10 s 640x480 session on the 2-core machine (compiled "
+                            "likelihood kernels): 2 / 5 / 10 → 82 / 99 / 99 % of frames tracked, median latency 37 / 56 "
+                            "/ 52 ms (host load varies between runs: `make bench`'s run at 10 gave 55 ms with two "
+                            "layers, 61 ms with three; one or two frames in 300 are occasionally lost between "
+                            "floor_segmentation and leg_tracker even at 10)"),
     ],
     "gait_analyzer": [
         ("summary_window", 10.0, "s, length of the rolling window of gait_summary/rolling"),
