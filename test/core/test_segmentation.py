@@ -127,7 +127,6 @@ def test_floor_tracker_finds_the_floor_of_a_camera_mounted_upside_down() -> None
     """``auto_flip``: until a floor was ever found, the half-turned ``up_hint`` is tried too and taken, for good, once
     it alone has found a floor in FLIP_CONFIRM_ATTEMPTS attempts in a row; the plane is the true one (normal up).
     Off, the tracker never finds that floor (the old behaviour, which needed ``up_hint`` set by hand)."""
-    rng = np.random.default_rng(5)
     scene = scene_cached(gait_legs(0), camera_height=0.5, pitch_deg=30.0)
     pts = _upside_down(PROJ.points(scene.depth))
     true_up = scene.floor.normal * np.array([-1.0, -1.0, 1.0])
@@ -145,7 +144,6 @@ def test_floor_tracker_finds_the_floor_of_a_camera_mounted_upside_down() -> None
     off = FloorTracker(FloorConfig(auto_flip=False), rng=np.random.default_rng(1))
     assert not any(off.update(pts).valid for _ in range(20)) and not off.flipped
     assert flipped_up_hint((0.1, -1.0, 0.2)) == (-0.1, 1.0, 0.2)
-    del rng
 
 
 def test_floor_tracker_does_not_flip_once_it_has_found_the_floor_nor_for_a_passing_plane() -> None:

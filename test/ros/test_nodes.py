@@ -39,6 +39,16 @@ def good_depth(h: int = 48, w: int = 64) -> np.ndarray:
     return (np.clip(z, 0, 4) * 1000).astype(np.uint16)
 
 
+def good_points() -> np.ndarray:
+    """The organised camera-frame cloud ``(48, 64, 3)`` of :func:`good_depth`."""
+    from walker_gait.core.depth import DepthProjector, decode_depth
+
+    proj = DepthProjector()
+    proj.set_intrinsics(INTR)
+    return proj.points(decode_depth(good_depth().tobytes(), encoding="16UC1", width=64, height=48, step=128,
+                                    is_bigendian=False))
+
+
 def image_bytes(depth: np.ndarray, *, encoding: str = "16UC1", stamp: float = 1.0) -> bytes:
     return M.serialize(M.make_image(depth, M.make_header(stamp, "cam"), encoding=encoding))
 
@@ -251,9 +261,8 @@ def test_floor_segmentation_node_handles_all_invalid_and_good_clouds(rclpy_conte
 
 
 def test_floor_segmentation_warns_once_per_floorless_stretch(rclpy_context: None) -> None:
-    """NO_FLOOR_WARN_FRAMES frames in a row without a floor (blank clouds here; in practice a camera mounted upside
-    down with the default floor.up_hint): one warning naming floor.up_hint; a floor resets the count."""
-    from walker_gait.core.depth import DepthProjector, decode_depth
+    """NO_FLOOR_WARN_FRAMES frames in a row without a floor (blank clouds here; in practice a camera rolled sideways,
+    or upside down with floor.auto_flip off): one warning naming floor.up_hint; a floor resets the count."""
     from walker_gait.ros.nodes import NO_FLOOR_WARN_FRAMES, FloorSegmentationNode
 
     node = FloorSegmentationNode(parameter_overrides=[rclpy.parameter.Parameter("input", value="points")])
@@ -263,11 +272,8 @@ def test_floor_segmentation_warns_once_per_floorless_stretch(rclpy_context: None
     logger.warning = warnings.append  # type: ignore[method-assign]
     node.get_logger = lambda: logger
     try:
-        proj = DepthProjector()
-        proj.set_intrinsics(INTR)
         blank = M.serialize(M.make_pointcloud2(np.full((48, 64, 3), np.nan, np.float32), M.make_header(1.0, "cam")))
-        depth = decode_depth(good_depth().tobytes(), encoding="16UC1", width=64, height=48, step=128, is_bigendian=False)
-        good = M.serialize(M.make_pointcloud2(proj.points(depth), M.make_header(2.0, "cam")))
+        good = M.serialize(M.make_pointcloud2(good_points(), M.make_header(2.0, "cam")))
         for _ in range(2 * NO_FLOOR_WARN_FRAMES):
             node.dispatch("points", M.POINT_CLOUD2, node.on_cloud, blank)
         assert len(warnings) == 1 and "floor.up_hint" in warnings[0]
@@ -281,7 +287,6 @@ def test_floor_segmentation_finds_the_floor_of_a_camera_upside_down_and_says_so_
     """The same view from a camera turned half a turn about its optical axis: with the default floor.up_hint the
     node finds the floor through floor.auto_flip (FLIP_CONFIRM_ATTEMPTS attempts), publishes it with its normal up
     (image rows up: +y) and logs the turned up_hint once; no floorless warning."""
-    from walker_gait.core.depth import DepthProjector, decode_depth
     from walker_gait.core.segmentation import FLIP_CONFIRM_ATTEMPTS, FloorConfig
     from walker_gait.ros.nodes import FloorSegmentationNode
 
@@ -296,17 +301,14 @@ def test_floor_segmentation_finds_the_floor_of_a_camera_upside_down_and_says_so_
     logger.warning = warnings.append  # type: ignore[method-assign]
     node.get_logger = lambda: logger
     try:
-        proj = DepthProjector()
-        proj.set_intrinsics(INTR)
-        depth = decode_depth(good_depth().tobytes(), encoding="16UC1", width=64, height=48, step=128, is_bigendian=False)
-        turned = proj.points(depth) * np.array([-1.0, -1.0, 1.0], np.float32)
+        turned = good_points() * np.array([-1.0, -1.0, 1.0], np.float32)
         n_frames = 1 + FLIP_CONFIRM_ATTEMPTS * FloorConfig().retry_interval
         for k in range(n_frames):
             cloud = M.serialize(M.make_pointcloud2(turned, M.make_header(1.0 + k / 30, "cam")))
             node.dispatch("points", M.POINT_CLOUD2, node.on_cloud, cloud)
-        normal = np.array([floors[-1].a, floors[-1].b, floors[-1].c])
-        assert floors[-1].valid and normal[1] > 0.5
-        assert not floors[0].valid  # the first attempt alone does not turn the camera over
+        last = M.floor_from_msg(floors[-1])
+        assert last.valid and last.normal[1] > 0.5
+        assert not M.floor_from_msg(floors[0]).valid  # the first attempt alone does not turn the camera over
         assert len(infos) == 1 and "upside down" in infos[0] and not warnings
     finally:
         node.destroy_node()

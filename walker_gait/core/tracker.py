@@ -621,6 +621,8 @@ class LegTracker:
                 raise TrackerInputError(f"no_depth shape {no_depth.shape} does not match depth_fg {depth.shape}")
         pts = pts[np.all(np.isfinite(pts), axis=1)]
         cfg = self.config
+        if not cfg.no_depth_unknown:
+            no_depth = None  # pixels without depth are background to both cues (paper)
         # no floor in this frame (not found yet, or hidden by the user or something in front of the lens): there
         # is no walker frame to track in and no region of interest, so the frame counts as one without foreground
         no_floor = not (floor.valid and np.all(np.isfinite(floor.normal)) and math.isfinite(floor.offset))
@@ -636,7 +638,7 @@ class LegTracker:
         legs = self.legs_in_view(pts, depth, floor)
         frame = None
         if holding:
-            frame = self._prepare(pts, depth, floor, no_depth if cfg.no_depth_unknown else None)
+            frame = self._prepare(pts, depth, floor, no_depth)
             if self._view_blanked(frame):
                 # the legs' pixels have gone without depth (a leg in front of the lens): whatever foreground is left
                 # is not the user (a wheel the region of interest takes in), so nothing is fitted to it; and a leg
@@ -652,7 +654,7 @@ class LegTracker:
             self._no_legs_run = 1
             return self._empty_pose(stamp)
         if frame is None:
-            frame = self._prepare(pts, depth, floor, no_depth if cfg.no_depth_unknown else None)
+            frame = self._prepare(pts, depth, floor, no_depth)
         self._coasted = 0
         self._stamp = float(stamp)
         searching = False
