@@ -27,7 +27,7 @@ from walker_gait.core.tracker import (
     camera_segments,
     preset,
 )
-from walker_gait.core.types import ANKLE, HEEL, JOINT_NAMES, TOE, FloorPlane, TrackStatus
+from walker_gait.core.types import ANKLE, HEEL, JOINT_NAMES, TOE, CameraIntrinsics, FloorPlane, TrackStatus
 
 FAST = preset("default", n_particles=64, init_rounds=4)
 
@@ -54,9 +54,40 @@ def test_presets() -> None:
                 {"feet_crossing_sigma": 0.0}, {"hidden_search_share": 1.5}, {"hidden_search_unexplained": 1.0},
                 {"hidden_search_frames": 0}, {"hidden_velocity_damping": -0.1}, {"heel_rise_dorsiflexion": -0.1},
                 {"heel_rise_dorsiflexion": float("nan")}, {"footprint_sigma": 0.0}, {"footprint_sigma_growth": -0.1},
-                {"footprint_max_s": 0.0}, {"blank_view_share": 0.0}, {"blank_view_share": 1.5}):
+                {"footprint_max_s": 0.0}, {"blank_view_share": 0.0}, {"blank_view_share": 1.5},
+                {"cue2d_focal": -1.0}, {"cue2d_focal": float("inf")}):
         with pytest.raises(ValueError):
             preset("default", **bad)
+
+
+def _camera(width: int, height: int, f: float) -> CameraIntrinsics:
+    return CameraIntrinsics(width=width, height=height, fx=f, fy=f, cx=width / 2 - 0.5, cy=height / 2 - 0.5)
+
+
+@pytest.mark.parametrize(("width", "height", "f", "stride"), [
+    (640, 480, 525.0, 10), (640, 480, 580.0, 10),  # Kinect v1: the stride the default preset was tuned with
+    (424, 240, 205.0, 4), (424, 240, 222.0, 4),  # a wide-angle 424x240 RealSense
+    (512, 424, 365.0, 7),  # Kinect v2
+    (320, 240, 262.5, 5), (160, 120, 131.25, 3),  # a Kinect v1 sent at half and quarter resolution
+])
+def test_the_2d_cue_covers_the_same_angle_with_any_camera(width: int, height: int, f: float, stride: int) -> None:
+    """``cue2d_focal``: the 2D cue's stride follows the camera's focal length, so that a cue pixel covers about
+    1° with any camera (a fixed stride of 10 gave a 424x240 RealSense a 42x24 cue of 2.1° pixels, a few per leg:
+    its step width came out 2.1 cm wide on average); the paper's full-resolution cue keeps stride 1."""
+    cam = _camera(width, height, f)
+    assert DEFAULT.cue_stride(cam) == stride
+    assert f / stride <= DEFAULT.cue2d_focal < f / (stride - 1) if stride > 1 else True
+    assert PAPER.cue_stride(cam) == 1
+    assert dataclasses.replace(DEFAULT, cue2d_focal=0.0).cue_stride(cam) == DEFAULT.cue2d_stride
+    tracker = LegTracker(DEFAULT, cam, rng=np.random.default_rng(0))
+    assert tracker._p2.stride == stride
+    depth = np.full((height, width), np.nan, np.float32)
+    depth[height // 2:, width // 3: 2 * width // 3] = 1.0
+    frame = tracker._prepare(np.zeros((10, 3)), depth, FloorPlane.from_camera_pose(height=0.5, pitch=0.5))
+    assert frame.cue.intrinsics.fx == pytest.approx(f / stride)
+    h, w = frame.cue.depth.shape
+    assert (h, w) == (frame.cue.intrinsics.height, frame.cue.intrinsics.width)
+    assert abs(w - width / stride) <= 1 and abs(h - height / stride) <= 1
 
 
 def test_camera_segments_give_the_foot_an_elliptical_section() -> None:

@@ -192,7 +192,8 @@ class TrackerConfig:
     truncate_3d: float = math.inf  # m, per-point distance cap
     # 2D cue
     lambda_2d: float = PAPER_LAMBDA_2D  # eq. 9 rate in 1/m (paper 1/3 mm^-1 = 333 m^-1)
-    cue2d_stride: int = 1  # 2D cue image = depth image / stride (paper: full 640x480)
+    cue2d_stride: int = 1  # 2D cue image = depth image / stride (paper: full 640x480), where `cue2d_focal` is 0
+    cue2d_focal: float = 0.0  # px; > 0: the stride is chosen per camera instead, the smallest that brings the 2D cue image's focal length (fx / stride) to at most this, so that a cue pixel covers about the same angle with any camera (58: a Kinect v1 at 640x480 gets stride 10, a 424x240 RealSense 4, a Kinect v2 7); 0 = `cue2d_stride` as given (paper)
     truncate_2d: float = math.inf  # m, per-pixel cost cap
     # occlusion / hidden parts
     occlusion_aware: bool = False  # occlusion-aware cues (see likelihood module)
@@ -268,6 +269,8 @@ class TrackerConfig:
             raise ValueError("anneal_betas needs one entry per layer")
         if self.cue2d_stride < 1:
             raise ValueError("cue2d_stride must be >= 1")
+        if not (self.cue2d_focal >= 0 and math.isfinite(self.cue2d_focal)):
+            raise ValueError(f"cue2d_focal must be >= 0 (0 = use cue2d_stride), got {self.cue2d_focal}")
         if not (0.0 <= self.hidden_search_share <= 1.0 and 0.0 <= self.hidden_search_unexplained < 1.0):
             raise ValueError("hidden_search_share must be in [0, 1] and hidden_search_unexplained in [0, 1), got "
                              f"{self.hidden_search_share}, {self.hidden_search_unexplained}")
@@ -295,6 +298,15 @@ class TrackerConfig:
         """The ``presence_*`` fields as the thresholds of :func:`walker_gait.core.presence.legs_in_view`."""
         return PresenceTest(height=self.presence_height, share=self.presence_share, band=self.presence_band,
                             width=self.presence_width)
+
+    def cue_stride(self, intrinsics: CameraIntrinsics) -> int:
+        """The 2D cue's stride for a camera: ``cue2d_stride``, or with ``cue2d_focal`` the smallest stride that
+        brings the cue image's focal length to at most ``cue2d_focal`` px.  A fixed stride gave a wide-angle,
+        low-resolution camera a cue of a few pixels per leg (a 424x240 RealSense at stride 10: 42x24 pixels of
+        2.1° against a Kinect v1's 64x48 of 1.0°), and the step width came out 2.1 cm wide on average."""
+        if self.cue2d_focal <= 0:
+            return self.cue2d_stride
+        return max(1, math.ceil(max(intrinsics.fx, intrinsics.fy) / self.cue2d_focal - 1e-9))
 
     def noise_vector(self) -> FloatArray:
         """Per-element diffusion std-devs ``(23,)``."""
@@ -338,6 +350,7 @@ DEFAULT = TrackerConfig(
     lambda_2d=4.0 * PAPER_LAMBDA_2D,
     truncate_3d=0.15,
     cue2d_stride=10,
+    cue2d_focal=58.0,
     truncate_2d=0.5,
     occlusion_aware=True,
     hidden_parts=True,
@@ -550,9 +563,10 @@ class LegTracker:
             occlusion_aware=config.occlusion_aware,
             truncate=config.truncate_3d,
         )
+        self._cue_stride = config.cue_stride(intrinsics)
         self._p2 = Cue2DParams(
             lam=config.lambda_2d,
-            stride=config.cue2d_stride,
+            stride=self._cue_stride,
             truncate=config.truncate_2d,
             occlusion_aware=config.occlusion_aware,
         )
@@ -764,7 +778,7 @@ class LegTracker:
         k = min(k, n)
         idx = self.rng.choice(n, size=k, replace=False) if k < n else np.arange(n)
         cue = CueImage.from_depth(
-            depth, intrinsics=self.intrinsics, stride=cfg.cue2d_stride, floor=floor, min_height=cfg.fg_min_height,
+            depth, intrinsics=self.intrinsics, stride=self._cue_stride, floor=floor, min_height=cfg.fg_min_height,
             unknown=no_depth,
         )
         return _Frame(body=body, fg=pts[np.sort(idx)], fg_all_body=body.to_body(pts), cue=cue, no_depth=no_depth)
