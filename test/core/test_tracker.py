@@ -76,7 +76,9 @@ def test_the_2d_cue_covers_the_same_angle_with_any_camera(width: int, height: in
     its step width came out 2.1 cm wide on average); the paper's full-resolution cue keeps stride 1."""
     cam = _camera(width, height, f)
     assert DEFAULT.cue_stride(cam) == stride
-    assert f / stride <= DEFAULT.cue2d_focal < f / (stride - 1) if stride > 1 else True
+    assert f / stride <= DEFAULT.cue2d_focal
+    if stride > 1:
+        assert DEFAULT.cue2d_focal < f / (stride - 1)  # the smallest such stride
     assert PAPER.cue_stride(cam) == 1
     assert dataclasses.replace(DEFAULT, cue2d_focal=0.0).cue_stride(cam) == DEFAULT.cue2d_stride
     tracker = LegTracker(DEFAULT, cam, rng=np.random.default_rng(0))

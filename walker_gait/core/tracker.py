@@ -563,10 +563,9 @@ class LegTracker:
             occlusion_aware=config.occlusion_aware,
             truncate=config.truncate_3d,
         )
-        self._cue_stride = config.cue_stride(intrinsics)
         self._p2 = Cue2DParams(
             lam=config.lambda_2d,
-            stride=self._cue_stride,
+            stride=config.cue_stride(intrinsics),
             truncate=config.truncate_2d,
             occlusion_aware=config.occlusion_aware,
         )
@@ -778,7 +777,7 @@ class LegTracker:
         k = min(k, n)
         idx = self.rng.choice(n, size=k, replace=False) if k < n else np.arange(n)
         cue = CueImage.from_depth(
-            depth, intrinsics=self.intrinsics, stride=self._cue_stride, floor=floor, min_height=cfg.fg_min_height,
+            depth, intrinsics=self.intrinsics, stride=self._p2.stride, floor=floor, min_height=cfg.fg_min_height,
             unknown=no_depth,
         )
         return _Frame(body=body, fg=pts[np.sort(idx)], fg_all_body=body.to_body(pts), cue=cue, no_depth=no_depth)
