@@ -108,6 +108,15 @@ def test_summarise_hand_built_errors() -> None:
     assert d["step_length_mae_confident_cm"] == pytest.approx(1.0) and d["step_width_mae_confident_cm"] == pytest.approx(3.0)
     table = sweep.format_table({"x": {"per_tracker_seed": {0: d}}})
     assert "| confident: length MAE cm | 1.00 |" in table and "| confident steps share | 0.50 |" in table
+    # the tail of the step length error apart from its body: 20 cm off is over 10 and under 40; 50 cm over both
+    assert (s["steps_off_over_10cm"], s["steps_off_over_40cm"], s["step_length_mae_body_cm"]) == (0, 0, pytest.approx(1.0))
+    assert (d["steps_off_over_10cm"], d["steps_off_over_40cm"], d["step_length_mae_body_cm"]) == (1, 0, pytest.approx(1.0))
+    assert "| steps off > 10 cm | 1 |" in table and "| step length MAE, steps <= 10 cm off | 1.00 |" in table
+    g = _run()
+    g.det[0] = replace(g.det[0], step_length=0.0)  # 50 cm short: a leg exchange
+    e2 = sweep.summarise([g])
+    assert (e2["steps_off_over_10cm"], e2["steps_off_over_40cm"], e2["step_length_mae_body_cm"]) == (1, 1, pytest.approx(1.0))
+    assert e2["step_length_mae_cm"] == pytest.approx((50 + 1) / 2)
     # a summary written before a figure existed shows it as n/a
     old = {k: v for k, v in d.items() if k != "confident_share"}
     assert "| confident steps share | n/a |" in sweep.format_table({"x": {"per_tracker_seed": {0: old}}})
