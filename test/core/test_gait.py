@@ -664,6 +664,58 @@ def test_step_width_takes_the_trailing_heel_from_its_last_flat_frames() -> None:
     assert flat["step_width_mae"] < 0.003 < 0.015 < at_strike["step_width_mae"], (flat["step_width_mae"], at_strike["step_width_mae"])
 
 
+def _turn_foot(sim: GaitSimResult, side: Side, *, t_on: float, t_off: float, deg: float = 45.0) -> list[LegPose]:
+    """``sim``'s poses with foot ``side``'s heel turned by ``deg`` about its toe from ``t_on`` to ``t_off`` (ramped in
+    over 0.3 s before ``t_on`` and out over 0.2 s after ``t_off``); the ankle, which gives the step width and the
+    line of progression, stays, so only the foot's heading changes."""
+    rot, off = sim.floor.walker_transform()
+    f = int(side)
+    poses = []
+    for p in sim.poses:
+        w = p.points @ rot.T + off
+        ramp = float(np.clip((p.stamp - t_on + 0.3) / 0.3, 0.0, 1.0)) * float(np.clip(1.0 - (p.stamp - t_off) / 0.2, 0.0, 1.0))
+        w[f, HEEL, :2] = w[f, TOE, :2] + _rot2(math.radians(deg) * ramp) @ (w[f, HEEL, :2] - w[f, TOE, :2])
+        poses.append(replace(p, points=(w - off) @ rot))
+    return poses
+
+
+@pytest.mark.parametrize("start", ["standing_start", "after_a_stop"])
+def test_a_trailing_foot_turned_against_the_landing_one_is_measured_heel_to_heel(start: str) -> None:
+    """A user stands with the left foot turned 45° (about its toe: its heel L (1 - cos 45°) = 6.4 cm further
+    forward than a straight foot's) and walks off straight.  Toe to toe, the first step came out 6.4 cm long
+    (measured: +6.4 / +6.2 cm); ``heading_offsets`` adds the difference of the two feet's heel-toe offsets along
+    the line (measured: -0.02 / +0.08 cm), and after a stop the turned footprint's next stride gets it too (+6.5 ->
+    +0.5 cm).  Feet that point alike get nothing added (the other steps equal to the millimetre)."""
+    bouts = ((("stand", 1.0), ("walk", 12), ("stand", 1.0)) if start == "standing_start"
+             else (("stand", 1.0), ("walk", 4), ("stand", 2.0), ("walk", 6), ("stand", 1.0)))
+    spec = replace(SCENARIOS["normal"], bouts=bouts)
+    sim = simulate_gait(spec, rng=np.random.default_rng(0))
+    hs = sorted(e.stamp for e in sim.events if e.kind == EventKind.HEEL_STRIKE and e.side == Side.LEFT)
+    to = sorted(e.stamp for e in sim.events if e.kind == EventKind.TOE_OFF and e.side == Side.LEFT)
+    t_on = 0.3 if start == "standing_start" else hs[1] + 1.1  # the stand after the first bout's last left step
+    t_off = min(t for t in to if t > t_on)
+    poses = _turn_foot(sim, Side.LEFT, t_on=t_on, t_off=t_off)
+    shorter = spec.foot_length * (1.0 - math.cos(math.radians(45.0)))
+    first = min(i for i, s in enumerate(sim.steps) if s.stamp > t_on)  # the right foot lands, the left one trails
+    assert sim.steps[first].side == Side.RIGHT
+    stride = first + 1  # the left foot's next landing: its stride from the turned footprint
+    steps = {}
+    for on in (False, True):
+        ga = run_analyzer(poses, sim.floor, config=GaitConfig(heading_offsets=on))
+        pairs, _, _ = match_steps(sim.steps, ga.steps)
+        assert len(pairs) == len(sim.steps) == len(ga.steps)
+        steps[on] = {i: ga.steps[j] for i, j in pairs}
+    err = {on: steps[on][first].step_length - (sim.steps[first].step_length - shorter) for on in steps}
+    assert err[False] > 0.05 and abs(err[True]) < 0.003, err
+    for i, s in steps[True].items():
+        if i != first:
+            assert s.step_length == pytest.approx(steps[False][i].step_length, abs=0.001), i
+    if start == "after_a_stop":  # the stride of the turned footprint's foot: its heel was `shorter` further forward
+        d_off = steps[False][stride].stride_length - (sim.steps[stride].stride_length - shorter)
+        d_on = steps[True][stride].stride_length - (sim.steps[stride].stride_length - shorter)
+        assert d_off > 0.05 and abs(d_on) < 0.01, (d_off, d_on)
+
+
 def _hide_trailing_foot(spec: GaitSimSpec, *, error_m: float, lateral_m: float = 0.0
                         ) -> tuple[GaitSimResult, list[LegPose], list[LegPose]]:
     """Session whose trailing foot, once the other foot is 5 cm ahead of its toe, is reported hidden and
