@@ -88,7 +88,9 @@ def test_input_validation() -> None:
         GaitConfig(rest_speed_mps=-1.0)
     for bad in ({"planted_fit_sigma_s": -0.1}, {"planted_fit_window_s": 0.0}, {"hs_height_weight": math.nan},
                 {"landing_toe_fit_s": -0.3}, {"landing_visibility": 1.5}, {"landing_visibility": math.nan},
-                {"hs_resume_distance_m": 0.0}, {"hs_resume_distance_m": math.nan}):
+                {"hs_resume_distance_m": 0.0}, {"hs_resume_distance_m": math.nan},
+                {"progression_from_feet_deg": 0.0}, {"progression_from_feet_deg": 181.0},
+                {"progression_from_feet_deg": math.nan}):
         with pytest.raises(GaitInputError, match=next(iter(bad))):
             GaitConfig(**bad)
     GaitConfig(planted_fit_sigma_s=0.0, hs_height_weight=0.0, landing_toe_fit_s=0.0, landing_visibility=0.0)  # 0 = off
@@ -714,6 +716,36 @@ def test_a_trailing_foot_turned_against_the_landing_one_is_measured_heel_to_heel
         d_off = steps[False][stride].stride_length - (sim.steps[stride].stride_length - shorter)
         d_on = steps[True][stride].stride_length - (sim.steps[stride].stride_length - shorter)
         assert d_off > 0.05 and abs(d_on) < 0.01, (d_off, d_on)
+
+
+@pytest.mark.parametrize("deg", [25.0, -40.0])
+def test_a_user_walking_at_an_angle_to_the_walker_has_that_line_of_progression_from_the_first_step(deg: float) -> None:
+    """A user walks at ``deg`` to the walker's axis (the whole session turned about the vertical in the walker's
+    frame: a user walking up to the walker from the side).  Before the first stride the line of progression was
+    the walker's axis, and the first step, a half step with the feet 16 cm apart, came out 5-15 cm off in length
+    and 8-13 cm in width; both feet pointing the same way, more than ``progression_from_feet_deg`` off the axis,
+    give the line instead: every step exact.  Walking along the axis nothing changes."""
+    spec = replace(SCENARIOS["normal"], bouts=(("stand", 1.0), ("walk", 6), ("stand", 1.0)))
+    sim = simulate_gait(spec, rng=np.random.default_rng(0))
+    rot, off = sim.floor.walker_transform()
+    turn = _rot2(math.radians(deg))
+    poses = []
+    for p in sim.poses:
+        w = p.points @ rot.T + off
+        w[..., :2] = w[..., :2] @ turn.T
+        poses.append(replace(p, points=(w - off) @ rot))
+    for fdeg in (15.0, 180.0):
+        ga = run_analyzer(poses, sim.floor, config=GaitConfig(progression_from_feet_deg=fdeg))
+        pairs, _, _ = match_steps(sim.steps, ga.steps)
+        assert len(pairs) == len(sim.steps) == len(ga.steps)
+        err = np.array([[ga.steps[j].step_length - sim.steps[i].step_length, ga.steps[j].step_width - sim.steps[i].step_width]
+                        for i, j in pairs])
+        if fdeg == 15.0:
+            assert np.abs(err).max() < 0.002, err
+        else:  # the first step along the walker's axis
+            assert np.abs(err[0]).min() > 0.04 and np.abs(err[1:]).max() < 0.002, err
+    straight = run_analyzer(sim.poses, sim.floor)
+    assert [s.step_length for s in straight.steps] == pytest.approx([s.step_length for s in sim.steps], abs=0.002)
 
 
 def _hide_trailing_foot(spec: GaitSimSpec, *, error_m: float, lateral_m: float = 0.0
