@@ -47,6 +47,7 @@ Method in short (all geometry in the floor plane of the *walker* frame, see ``ty
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import asdict, dataclass, field
 from enum import IntEnum
 from typing import Any
@@ -1397,33 +1398,41 @@ class GaitAnalyzer:
         """Foot ``f``'s mean heel-minus-ankle offset (xy, walker frame) over its flat frames; needs ``_oa_n[f] > 0``."""
         return self._oa_sum[f] / self._oa_n[f]
 
-    def _flat_heel(self, f: int, t_lo: float, t_hi: float) -> FloatArray | None:
-        """Foot ``f``'s heel (xy, walker frame) as ``ankle + heel-ankle offset`` averaged over its flat frames (heel and
-        toe on the floor) in ``[t_lo, t_hi]`` in which the tracker saw it (visibility >= 0.5: a hidden foot is where
-        its motion model put it) that lie within 0.3 s of the last of them; None with fewer than three such frames
-        or no offset yet."""
-        if self._oa_n[f] == 0:
-            return None
+    def _last_flat(self, f: int, t_lo: float, t_hi: float,
+                   usable: Callable[[NDArray[np.intp]], NDArray[np.bool_]] | None = None) -> NDArray[np.intp] | None:
+        """Foot ``f``'s last flat frames (heel and toe on the floor) in ``[t_lo, t_hi]`` in which the tracker saw it
+        (visibility >= 0.5: a hidden foot is where its motion model put it), those within 0.3 s of the last of
+        them; ``usable(r)`` (a function of the frame indices) narrows the candidates first.  None with fewer than
+        three."""
         r = self._valid_range(t_lo, t_hi)
-        r = r[(self._weight[r, f, _T] >= 0.5) & (self._weight[r, f, _H] >= 0.5) & (self._vis[r, f] >= 0.5)
-              & np.all(np.isfinite(self._ankle[r, f, :2]), axis=1)]
+        r = r[(self._weight[r, f, _T] >= 0.5) & (self._weight[r, f, _H] >= 0.5) & (self._vis[r, f] >= 0.5)]
+        if usable is not None:
+            r = r[usable(r)]
         if r.size < 3:
             return None
-        r = r[self._t[r] >= self._t[r[-1]] - _FLAT_HEEL_SPAN_S]
+        return r[self._t[r] >= self._t[r[-1]] - _FLAT_HEEL_SPAN_S]
+
+    def _flat_heel(self, f: int, t_lo: float, t_hi: float) -> FloatArray | None:
+        """Foot ``f``'s heel (xy, walker frame) as ``ankle + heel-ankle offset`` averaged over its last flat frames in
+        view in ``[t_lo, t_hi]`` (:meth:`_last_flat`); None without them or without an offset yet."""
+        if self._oa_n[f] == 0:
+            return None
+        r = self._last_flat(f, t_lo, t_hi, lambda r: np.all(np.isfinite(self._ankle[r, f, :2]), axis=1))
+        if r is None:
+            return None
         return self._ankle[r, f, :2].mean(axis=0) + self._heel_ankle_offset(f)
 
     def _flat_heading(self, f: int, t_lo: float, t_hi: float) -> tuple[FloatArray, float] | None:
         """Foot ``f``'s heel-to-toe direction (unit, walker frame) and horizontal length (m) over its last flat frames in
-        view in ``[t_lo, t_hi]`` (those within 0.3 s of the last one, as :meth:`_flat_heel`); None with fewer than
-        three."""
-        r = self._valid_range(t_lo, t_hi)
-        r = r[(self._weight[r, f, _T] >= 0.5) & (self._weight[r, f, _H] >= 0.5) & (self._vis[r, f] >= 0.5)]
-        v = self._raw[r, f, _T, :2] - self._raw[r, f, _H, :2]
-        ok = np.all(np.isfinite(v), axis=1) & (np.hypot(v[:, 0], v[:, 1]) > 1e-3)
-        r, v = r[ok], v[ok]
-        if r.size < 3:
+        view in ``[t_lo, t_hi]`` (:meth:`_last_flat`); None without them."""
+        def usable(r: NDArray[np.intp]) -> NDArray[np.bool_]:
+            v = self._raw[r, f, _T, :2] - self._raw[r, f, _H, :2]
+            return np.all(np.isfinite(v), axis=1) & (np.hypot(v[:, 0], v[:, 1]) > 1e-3)
+
+        r = self._last_flat(f, t_lo, t_hi, usable)
+        if r is None:
             return None
-        v = v[self._t[r] >= self._t[r[-1]] - _FLAT_HEEL_SPAN_S]
+        v = self._raw[r, f, _T, :2] - self._raw[r, f, _H, :2]
         n = np.hypot(v[:, 0], v[:, 1])
         m = (v / n[:, None]).mean(axis=0)
         nm = float(np.hypot(*m))
