@@ -21,7 +21,7 @@ from walker_gait.core.types import (
     Step,
     TrackStatus,
 )
-from walker_gait.report import estimate_floor_from_events, gait_cycles, write_report
+from walker_gait.report import estimate_floor_from_events, footprint_chain, gait_cycles, write_report
 
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
 FLOOR = FloorPlane.from_camera_pose(height=0.75, pitch=math.radians(35.0))
@@ -175,7 +175,7 @@ def _parse(path: Path) -> tuple[str, _Collector]:
     return text, parser
 
 
-SECTIONS = ("header", "summary", "steps-plot", "joint-angles", "gait-cycle", "foot-heights", "quality",
+SECTIONS = ("header", "summary", "steps-plot", "footprints", "joint-angles", "gait-cycle", "foot-heights", "quality",
             "steps-table")
 
 
@@ -198,8 +198,8 @@ def test_full_report_is_valid_self_contained_html(tmp_path: Path, session) -> No
     assert "<script" not in text
     for anchor in SECTIONS:
         assert anchor in parser.ids
-    # 5 figures: steps, joint angles, gait cycle, foot heights, quality
-    assert len(parser.imgs) == 5
+    # 6 figures: steps, footprints, joint angles, gait cycle, foot heights, quality
+    assert len(parser.imgs) == 6
     for src in parser.imgs:
         assert src.startswith("data:image/png;base64,")
         assert base64.b64decode(src.split(",", 1)[1]).startswith(PNG_MAGIC)
@@ -276,7 +276,7 @@ def test_report_with_ground_truth(tmp_path: Path, session) -> None:
     assert "Truth left" in text
     assert "101.0" in text and "41.0" in text
     assert "ground truth" in text
-    assert len(parser.imgs) == 5
+    assert len(parser.imgs) == 6
 
 
 def test_report_is_atomic_old_file_kept_on_failure(tmp_path: Path, session) -> None:
@@ -289,6 +289,43 @@ def test_report_is_atomic_old_file_kept_on_failure(tmp_path: Path, session) -> N
                      ground_truth=bad)
     assert target.read_text() == "old report"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["report.html"]
+
+
+def _step(t: float, side: Side, length: float, width: float, confidence: float = 1.0) -> Step:
+    nan = math.nan
+    return Step(stamp=t, side=side, index=0, step_length=length, step_width=width, step_time=nan, stride_length=nan,
+                stride_time=nan, stance_time=nan, swing_time=nan, single_support_time=nan, double_support_time=nan,
+                confidence=confidence)
+
+
+def test_footprint_chain_places_each_foot_from_the_other_ones_last_footfall() -> None:
+    """Right, left, right steps of known length and width: each foot lands one step length ahead of the other
+    foot's last footfall and one width to its own side (the user's left for the left foot); a step of unknown
+    length breaks the chain and the next run starts after the last one; an asymmetric gait shows as such."""
+    steps = [_step(1.0, Side.RIGHT, 0.20, 0.16), _step(1.6, Side.LEFT, 0.50, 0.14),
+             _step(2.2, Side.RIGHT, 0.40, 0.18, confidence=0.3), _step(2.8, Side.LEFT, math.nan, 0.15),
+             _step(3.4, Side.RIGHT, 0.45, 0.12), _step(4.0, Side.LEFT, 0.35, 0.12)]
+    runs = footprint_chain(steps[::-1])  # any order: by time
+    assert [len(r) for r in runs] == [4, 3]
+    first = runs[0]
+    assert [(f.side, round(f.along, 3), round(f.across, 3)) for f in first] == [
+        (Side.LEFT, 0.0, 0.08), (Side.RIGHT, 0.2, -0.08), (Side.LEFT, 0.7, 0.06), (Side.RIGHT, 1.1, -0.12)]
+    assert math.isnan(first[0].confidence) and first[3].confidence == 0.3
+    second = runs[1]
+    assert second[0].along == pytest.approx(1.1 + 0.3) and second[0].side == Side.LEFT
+    assert second[1].along - second[0].along == pytest.approx(0.45)
+    assert second[2].along - second[1].along == pytest.approx(0.35)
+    assert second[2].across - second[1].across == pytest.approx(0.12)
+    assert footprint_chain([]) == [] and footprint_chain([_step(1.0, Side.LEFT, math.nan, 0.1)]) == []
+
+
+def test_a_long_walk_draws_its_first_walkway_rows_and_says_so(tmp_path: Path) -> None:
+    steps = [_step(0.6 * k, Side(k % 2), 0.5, 0.15) for k in range(80)]  # 40 m
+    out = write_report(tmp_path / "r.html", steps=steps, events=[], poses=[], summary={}, metadata={})
+    text, parser = _parse(out)
+    assert parser.errors == []
+    assert "The first 24 m of 40 m are shown." in text
+    assert len(parser.imgs) == 2  # steps, footprints
 
 
 def test_gait_cycles_normalisation() -> None:

@@ -39,6 +39,7 @@ import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
+from matplotlib.patches import Ellipse
 
 from walker_gait import __version__
 from walker_gait.core.types import (
@@ -56,7 +57,7 @@ from walker_gait.core.types import (
 )
 from walker_gait.io.outputs import REPORT_HTML, atomic_write, summary_to_json
 
-__all__ = ["SIDE_COLOURS", "gait_cycles", "estimate_floor_from_events", "write_report"]
+__all__ = ["SIDE_COLOURS", "footprint_chain", "gait_cycles", "estimate_floor_from_events", "write_report"]
 
 DPI = 80
 """Resolution of the embedded figures (pixels per inch); figures are ~11 in wide."""
@@ -65,6 +66,10 @@ SIDE_COLOURS: dict[Side, str] = {Side.LEFT: "#c62828", Side.RIGHT: "#1565c0"}
 """Left = red, right = blue (gait-lab convention; distinguishable with red-green colour blindness)."""
 
 _SIDE_MARKERS: dict[Side, str] = {Side.LEFT: "o", Side.RIGHT: "s"}
+_FOOT_LENGTH_M = 0.25  # the footprint drawn on the walkway map (a shoe, heel at the footfall)
+_FOOT_WIDTH_M = 0.09
+_WALKWAY_ROW_M = 4.0  # m of walkway per row of the footprint map (at equal scale)
+_WALKWAY_ROWS = 6  # rows drawn at most (a longer walk shows its first 24 m)
 
 _SAGITTAL: tuple[tuple[str, str], ...] = (
     ("hip_flexion", "Hip flexion (+) / extension (−)"),
@@ -295,6 +300,42 @@ def _top_legend(ax: Any, *, extra_axes: Sequence[Any] = ()) -> None:
                   ncol=min(6, len(seen)), fontsize=8, frameon=False, borderaxespad=0.2)
 
 
+@dataclass(frozen=True)
+class Footfall:
+    """One footfall of :func:`footprint_chain`: the heel's place on a straightened walkway (m)."""
+
+    side: Side
+    along: float  # along the walking direction, from the run's first footfall
+    across: float  # across it, towards the user's left
+    confidence: float  # the step's (nan for a run's first, trailing, footfall)
+
+
+def footprint_chain(steps: Sequence[Step]) -> list[list[Footfall]]:
+    """Footfalls rebuilt from ``steps`` (time order) as a walkway would show them: each step puts its foot
+    ``step_length`` ahead of the other foot's last footfall and ``step_width`` to its own side (the user's left
+    for the left foot).  A run starts with the first step's trailing foot at (0, 0) and breaks at a step whose
+    length or width is unknown; the next run starts where the last one ended, so the runs follow each other."""
+    runs: list[list[Footfall]] = []
+    last: dict[Side, Footfall] = {}
+    start = 0.0
+    for s in sorted(steps, key=lambda s: (s.stamp, s.index)):
+        if not (math.isfinite(s.step_length) and math.isfinite(s.step_width)):
+            if last:
+                start = max(f.along for f in last.values()) + 0.3
+            last = {}
+            continue
+        other = Side.RIGHT if s.side == Side.LEFT else Side.LEFT
+        lateral = 1.0 if s.side == Side.LEFT else -1.0
+        if other not in last:
+            last = {other: Footfall(other, start, -lateral * s.step_width / 2.0, math.nan)}
+            runs.append([last[other]])
+        base = last[other]
+        foot = Footfall(s.side, base.along + s.step_length, base.across + lateral * s.step_width, s.confidence)
+        last[s.side] = foot
+        runs[-1].append(foot)
+    return runs
+
+
 # --------------------------------------------------------------------------------------------
 # Figures
 # --------------------------------------------------------------------------------------------
@@ -323,6 +364,42 @@ def _fig_steps(steps: Sequence[Step], gt: Sequence[_GtStep], t0: float) -> str:
     _top_legend(axes[0])
     axes[1].set_xlabel("time (s, heel-strike time from start of recording)")
     return _png_b64(fig)
+
+
+def _fig_footprints(runs: Sequence[Sequence[Footfall]], *, min_confidence: float = 0.5) -> tuple[str, float]:
+    """The footprint map (PNG, base64) in rows of ``_WALKWAY_ROW_M`` at equal scale, at most ``_WALKWAY_ROWS`` of them,
+    and the length of walkway shown (m)."""
+    feet = [f for run in runs for f in run]
+    a0 = min(f.along for f in feet)
+    a1 = max(f.along for f in feet)
+    n_rows = min(_WALKWAY_ROWS, int((a1 - a0) // _WALKWAY_ROW_M) + 1)
+    lo = min(f.across for f in feet) - 0.12
+    hi = max(f.across for f in feet) + 0.12
+    row_h = 11.0 * (hi - lo) / (_WALKWAY_ROW_M + 0.4) + 0.35
+    fig = _figure(11, min(row_h * n_rows + 0.6, 12.0))
+    axes = np.atleast_1d(fig.subplots(n_rows, 1, squeeze=False)[:, 0])
+    for r, ax in enumerate(axes):
+        x0 = a0 + r * _WALKWAY_ROW_M
+        for f in feet:
+            if not x0 <= f.along < x0 + _WALKWAY_ROW_M:
+                continue
+            doubted = not (f.confidence >= min_confidence)  # nan (a run's first footfall) counts as doubted
+            ax.add_patch(Ellipse((f.along + _FOOT_LENGTH_M / 2, f.across), _FOOT_LENGTH_M, _FOOT_WIDTH_M,
+                                 facecolor="none" if doubted else SIDE_COLOURS[f.side], alpha=1.0 if doubted else 0.6,
+                                 edgecolor=SIDE_COLOURS[f.side], lw=1.0, ls="--" if doubted else "-"))
+            ax.plot([f.along], [f.across], marker="|", color="black", ms=6)
+        ax.set_xlim(x0 - 0.1, x0 + _WALKWAY_ROW_M + 0.3)
+        ax.set_ylim(lo, hi)
+        ax.set_aspect("equal")
+        ax.grid(True, alpha=0.3)
+        ax.set_ylabel("across (m)", fontsize=8)
+        ax.tick_params(labelsize=8)
+    axes[-1].set_xlabel("along the walking direction (m)")
+    handles = [Line2D([], [], color=SIDE_COLOURS[side], marker="o", ls="", ms=8, alpha=0.6, label=side.label)
+               for side in Side]
+    handles.append(Line2D([], [], color="grey", marker="o", ls="", ms=8, mfc="none", label="doubted / first"))
+    axes[0].legend(handles=handles, loc="lower right", bbox_to_anchor=(1.0, 1.0), ncol=3, fontsize=8, frameon=False)
+    return _png_b64(fig), min(a1 - a0, n_rows * _WALKWAY_ROW_M)
 
 
 def _fig_joint_angles(stamps: FloatArray, angles: FloatArray, t0: float) -> str:
@@ -739,6 +816,23 @@ def write_report(
         body = _empty("No steps detected.")
     sections.append(_section("steps-plot", "Step length and width", body))
 
+    # footprints
+    runs = footprint_chain(steps_l)
+    if runs:
+        b64, shown = _fig_footprints(runs)
+        total = max(f.along for run in runs for f in run) - min(f.along for run in runs for f in run)
+        body = _img(b64, "Footprints on a straightened walkway, left and right")
+        if shown < total:
+            body += f'<p class="note">The first {shown:.0f} m of {total:.0f} m are shown.</p>'
+        body += ('<p class="note">Each footprint is placed from the steps, as a walkway mat shows them: a step '
+                 "puts its foot one step length ahead of the other foot's last footprint and one step width to "
+                 "its side (the walking direction straightened out; the tick marks the heel). Hollow, dashed: "
+                 "a step the analyzer doubts (confidence below 0.5) or the first, trailing foot of a run. A "
+                 "step whose length or width is unknown breaks the chain.</p>")
+    else:
+        body = _empty("No steps with a known length and width: no footprints to draw.")
+    sections.append(_section("footprints", "Footprints", body))
+
     # joint angles
     have_angles = bool(len(stamps)) and bool(np.isfinite(angles).any())
     if have_angles:
@@ -795,7 +889,8 @@ def write_report(
 
     nav = "".join(
         f'<a href="#{a}">{_esc(t)}</a>'
-        for a, t in (("summary", "Summary"), ("steps-plot", "Steps"), ("joint-angles", "Joint angles"),
+        for a, t in (("summary", "Summary"), ("steps-plot", "Steps"), ("footprints", "Footprints"),
+                     ("joint-angles", "Joint angles"),
                      ("gait-cycle", "Gait cycle"), ("foot-heights", "Foot heights"), ("quality", "Quality"),
                      ("steps-table", "Step table"))
     )
