@@ -140,6 +140,14 @@ def test_summarise_hand_built_errors() -> None:
     s2 = sweep.summarise([a])
     assert (s2["gt_steps_in_view"], s2["gt_steps_in_image"], s2["matched_in_view"]) == (0, 1, 0)
     assert math.isnan(s2["recall_in_view"]) and s2["recall_in_image"] == 1.0
+    # ... and its frames, tracked or not, are left out of the frames > 10 cm at the walker, not of the older figure
+    a.est[:20] = np.nan  # not tracked on its way in
+    a.est[40:46] += 0.5  # 6 of the 40 frames at the walker 50 cm off
+    s3 = sweep.summarise([a])
+    assert s3["frames_over_10cm_pct"] == pytest.approx(100 * 26 / 60)
+    assert s3["frames_over_10cm_at_walker_pct"] == pytest.approx(100 * 6 / 40)
+    assert "| frames > 10 cm at the walker % | 15.00 |" in sweep.format_table({"x": {"per_tracker_seed": {0: s3}}})
+    assert s["frames_over_10cm_at_walker_pct"] == 0.0
 
 
 def test_summary_errors_compare_the_session_cadence_and_speed_with_the_truth() -> None:
