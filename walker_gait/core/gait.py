@@ -260,9 +260,9 @@ class GaitConfig:
     set never used to choose anything (``--base-seed 300``, tracker seeds 0 / 1) 3.87 -> 3.83, the twenty probes of
     unusual users and mounts 24.29 -> 24.14 (0.01 m: 13.73, 3.83, 24.19)."""
     progression_from_feet_deg: float = 15.0
-    """Before the first stride of a track the line of progression is the walker's axis, unless both feet (each
-    over its last flat frames in view, as ``heading_offsets``) point within 20 deg of each other and their mean
-    heading is more than this (deg) off that axis: then that heading.  A user who walked up to the walker at an
+    """Before the analyzer has a stride (strides are kept through a tracking gap) the line of progression is the
+    walker's axis, unless both feet (each over its last flat frames in view, as ``heading_offsets``) point within
+    20 deg of each other and their mean heading is more than this (deg) off that axis: then that heading.  A user who walked up to the walker at an
     angle closes the step with the feet side by side across the approach, which along the walker's axis read as a
     10-12 cm step (180 = off).  Re-analysed eight baseline runs (forty-second session): step length MAE summed
     13.79 -> 13.65 cm, width 12.55 -> 12.41, every run better or equal; sixteen runs of earlier tracker variants
