@@ -42,6 +42,7 @@ from matplotlib.lines import Line2D
 from matplotlib.patches import Ellipse
 
 from walker_gait import __version__
+from walker_gait.core.gait import GaitConfig
 from walker_gait.core.types import (
     HEEL,
     JOINT_NAMES,
@@ -366,9 +367,10 @@ def _fig_steps(steps: Sequence[Step], gt: Sequence[_GtStep], t0: float) -> str:
     return _png_b64(fig)
 
 
-def _fig_footprints(runs: Sequence[Sequence[Footfall]], *, min_confidence: float = 0.5) -> tuple[str, float]:
+def _fig_footprints(runs: Sequence[Sequence[Footfall]]) -> tuple[str, float, float]:
     """The footprint map (PNG, base64) in rows of ``_WALKWAY_ROW_M`` at equal scale, at most ``_WALKWAY_ROWS`` of them,
-    and the length of walkway shown (m)."""
+    the length of walkway shown and the whole walk's (m).  Steps below the summaries' confidence are drawn hollow."""
+    min_confidence = GaitConfig.summary_min_confidence
     feet = [f for run in runs for f in run]
     a0 = min(f.along for f in feet)
     a1 = max(f.along for f in feet)
@@ -377,7 +379,7 @@ def _fig_footprints(runs: Sequence[Sequence[Footfall]], *, min_confidence: float
     hi = max(f.across for f in feet) + 0.12
     row_h = 11.0 * (hi - lo) / (_WALKWAY_ROW_M + 0.4) + 0.35
     fig = _figure(11, min(row_h * n_rows + 0.6, 12.0))
-    axes = np.atleast_1d(fig.subplots(n_rows, 1, squeeze=False)[:, 0])
+    axes = fig.subplots(n_rows, 1, squeeze=False)[:, 0]
     for r, ax in enumerate(axes):
         x0 = a0 + r * _WALKWAY_ROW_M
         for f in feet:
@@ -399,7 +401,7 @@ def _fig_footprints(runs: Sequence[Sequence[Footfall]], *, min_confidence: float
                for side in Side]
     handles.append(Line2D([], [], color="grey", marker="o", ls="", ms=8, mfc="none", label="doubted / first"))
     axes[0].legend(handles=handles, loc="lower right", bbox_to_anchor=(1.0, 1.0), ncol=3, fontsize=8, frameon=False)
-    return _png_b64(fig), min(a1 - a0, n_rows * _WALKWAY_ROW_M)
+    return _png_b64(fig), min(a1 - a0, n_rows * _WALKWAY_ROW_M), a1 - a0
 
 
 def _fig_joint_angles(stamps: FloatArray, angles: FloatArray, t0: float) -> str:
@@ -819,15 +821,15 @@ def write_report(
     # footprints
     runs = footprint_chain(steps_l)
     if runs:
-        b64, shown = _fig_footprints(runs)
-        total = max(f.along for run in runs for f in run) - min(f.along for run in runs for f in run)
+        b64, shown, total = _fig_footprints(runs)
         body = _img(b64, "Footprints on a straightened walkway, left and right")
         if shown < total:
             body += f'<p class="note">The first {shown:.0f} m of {total:.0f} m are shown.</p>'
         body += ('<p class="note">Each footprint is placed from the steps, as a walkway mat shows them: a step '
                  "puts its foot one step length ahead of the other foot's last footprint and one step width to "
                  "its side (the walking direction straightened out; the tick marks the heel). Hollow, dashed: "
-                 "a step the analyzer doubts (confidence below 0.5) or the first, trailing foot of a run. A "
+                 f"a step the analyzer doubts (confidence below {GaitConfig.summary_min_confidence:g}) or the first, "
+                 "trailing foot of a run. A "
                  "step whose length or width is unknown breaks the chain.</p>")
     else:
         body = _empty("No steps with a known length and width: no footprints to draw.")

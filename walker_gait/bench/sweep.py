@@ -384,12 +384,12 @@ def summarise(runs: list[SessionRun]) -> dict[str, Any]:
         e = np.concatenate(err_all) if err_all else np.zeros((0, 2, 5))
         g = np.concatenate(good_all) if good_all else np.zeros((0, 2, 5))
         per_frame = np.nanmean(e, axis=(1, 2)) if len(e) else np.zeros(0)
+        bw = np.concatenate(bad_at_walker) if bad_at_walker else np.zeros(0, dtype=bool)
         out: dict[str, Any] = {
             "sessions": len(runs),
             "joint_err_cm": {p: float(np.nanmean(e[:, :, k]) * 100) for k, p in enumerate(LEG_POINTS)},
             "frames_over_10cm_pct": float(np.mean(~(per_frame <= 0.10)) * 100) if len(e) else math.nan,
-            "frames_over_10cm_at_walker_pct": (float(np.mean(np.concatenate(bad_at_walker)) * 100)
-                                               if bad_at_walker and np.concatenate(bad_at_walker).size else math.nan),
+            "frames_over_10cm_at_walker_pct": float(np.mean(bw) * 100) if bw.size else math.nan,
             "good_frame_err_cm": {p: float(np.nanmean(g[:, :, k]) * 100) for k, p in enumerate(LEG_POINTS) if k >= ANKLE},
         }
     fl = np.concatenate(flen) if flen else np.zeros(0)
