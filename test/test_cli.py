@@ -40,6 +40,20 @@ def test_process_real_bag_writes_every_output(real_bag: Path, tmp_path: Path) ->
     assert not list(out.glob(".*tmp*")), "temporary files left behind"
 
 
+def test_passes_choose_one_or_two_tracking_passes(real_bag: Path, tmp_path: Path) -> None:
+    """``--passes forward`` tracks as the live graph does; the default tracks forwards and backwards and says so;
+    anything else is refused by the parser."""
+    one = walker_gait("process", str(real_bag), "--out", str(tmp_path / "one"), "--passes", "forward")
+    two = walker_gait("process", str(real_bag), "--out", str(tmp_path / "two"))
+    assert one.returncode == 0 and two.returncode == 0, one.stderr + two.stderr
+    meta_one = json.loads((tmp_path / "one" / "summary.json").read_text())["metadata"]
+    meta_two = json.loads((tmp_path / "two" / "summary.json").read_text())["metadata"]
+    assert meta_one["passes"] == "forward" and meta_two["passes"] == "both"
+    assert "tracked forwards (one pass)" in one.stdout and "tracked forwards and backwards" in two.stdout
+    bad = walker_gait("process", str(real_bag), "--out", str(tmp_path / "bad"), "--passes", "backward")
+    assert bad.returncode == 2 and "--passes" in bad.stderr
+
+
 def test_tracked_mcap_reads_back_with_rosbags(real_bag: Path, tmp_path: Path) -> None:
     from rosbags.highlevel import AnyReader
 

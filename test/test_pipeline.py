@@ -217,3 +217,78 @@ def test_frames_without_a_floor_are_tracked_as_no_user(short_session: Path, tmp_
     assert any(p.status == TrackStatus.TRACKING for p in res.poses[8:40])
     for name in ("joints.csv", "steps.csv", "events.csv", "summary.json", "report.html"):
         assert (tmp_path / "out" / name).is_file(), name
+
+
+def test_frame_store_reads_frames_back_bit_for_bit(short_session: Path) -> None:
+    """The store keeps a frame without its points and recomputes them from the foreground depth: the frames that
+    come back (from the temporary file: no memory allowance) are those that went in, in any order."""
+    from types import SimpleNamespace
+
+    from walker_gait.io.bags import open_recording
+    from walker_gait.pipeline import FrameProcessor, FrameStore
+
+    proc = FrameProcessor(_options(0))
+    frames = []
+    for i, fr in enumerate(open_recording(short_session).iter_frames()):
+        if i % 9:
+            continue
+        proc.set_camera_info(SimpleNamespace(**{k: getattr(fr.camera_info, k) for k in
+                                                ("width", "height", "k", "d", "p", "distortion_model")}))
+        frames.append(proc.prepare(stamp=fr.stamp, data=fr.data, encoding=fr.encoding, width=fr.width,
+                                   height=fr.height, step=fr.step, is_bigendian=fr.is_bigendian))
+    assert len(frames) >= 8 and all(len(f.points) > 100 for f in frames[2:])
+    store = FrameStore(memory_mb=0)
+    for f in frames:
+        store.append(f)
+    assert len(store) == len(frames)
+    for i in [5, 0, len(frames) - 1, 3, 3]:
+        back, f = store[i], frames[i]
+        assert back.points.dtype == f.points.dtype and back.points.tobytes() == f.points.tobytes()
+        np.testing.assert_array_equal(back.depth_fg, f.depth_fg)
+        np.testing.assert_array_equal(back.no_depth, f.no_depth)
+        assert back.stamp == f.stamp and back.intrinsics == f.intrinsics and back.timings_ms == f.timings_ms
+        np.testing.assert_array_equal(back.floor.normal, f.floor.normal)
+    store.close()
+
+
+def test_two_passes_merge_the_forward_pass_with_a_backward_one(short_session: Path, tmp_path: Path) -> None:
+    """``passes="both"``: every frame gets a pose, each one either the forward pass's (which is the one-pass
+    pipeline's, same seed) or the backward pass's, in the share reported; the outputs say which was run."""
+    import json
+    from types import SimpleNamespace
+
+    from walker_gait.io.bags import open_recording
+    from walker_gait.pipeline import FrameProcessor
+
+    one = process_recording(short_session, tmp_path / "one", options=_options(0, passes="forward"), progress=False)
+    two = process_recording(short_session, tmp_path / "two", options=_options(0, passes="both"), progress=False)
+    assert len(two.poses) == len(one.poses) == 75
+    assert [p.stamp for p in two.poses] == [p.stamp for p in one.poses]
+    meta_one = json.loads((tmp_path / "one" / "summary.json").read_text())["metadata"]
+    meta_two = json.loads((tmp_path / "two" / "summary.json").read_text())["metadata"]
+    assert meta_one["passes"] == "forward" and meta_one["frames_from_backward_pass"] is None
+    assert meta_two["passes"] == "both" and 0 <= meta_two["frames_from_backward_pass"] <= 75
+    assert "tracker_backward" in meta_two["mean_stage_ms"] and "tracker_backward" not in meta_one["mean_stage_ms"]
+    assert two.passes == "both" and two.frames_from_backward_pass == meta_two["frames_from_backward_pass"]
+    assert "backward" in two.describe() and "one pass" in one.describe()
+
+    proc = FrameProcessor(_options(0, passes="both"))
+    for fr in open_recording(short_session).iter_frames():
+        proc.set_camera_info(SimpleNamespace(**{k: getattr(fr.camera_info, k) for k in
+                                                ("width", "height", "k", "d", "p", "distortion_model")}))
+        assert proc.process(stamp=fr.stamp, data=fr.data, encoding=fr.encoding, width=fr.width, height=fr.height,
+                            step=fr.step, is_bigendian=fr.is_bigendian) is None
+    fin = proc.finish()
+    assert len(fin.results) == 75
+    differ = [not np.array_equal(r.pose.points, p.points, equal_nan=True) for r, p in zip(fin.results, one.poses)]
+    assert sum(differ) == round(fin.backward_share * 75) == meta_two["frames_from_backward_pass"]
+    np.testing.assert_array_equal([r.pose.points for r in fin.results], [p.points for p in two.poses])
+    assert [(s.stamp, s.step_length) for r in fin.results for s in r.steps] + \
+        [(s.stamp, s.step_length) for s in fin.steps] == [(s.stamp, s.step_length) for s in two.steps]
+
+
+def test_passes_must_be_known() -> None:
+    from walker_gait.config import ParameterError
+
+    with pytest.raises(ParameterError, match="passes"):
+        PipelineOptions(passes="backward")

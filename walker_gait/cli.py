@@ -217,7 +217,7 @@ def cmd_process(args: argparse.Namespace) -> int:
     file_params, overrides = _pipeline_params(args)
     options = PipelineOptions.from_params(file_params, overrides, preset=args.preset, seed=args.seed,
                                           depth_topic=args.depth_topic, info_topic=args.info_topic,
-                                          camera_info_file=args.camera_info)
+                                          camera_info_file=args.camera_info, passes=args.passes)
     result = process_recording(path, Path(args.out), options=options, progress=not args.quiet)
     if not args.quiet:
         print(result.describe())
@@ -228,7 +228,8 @@ def cmd_batch(args: argparse.Namespace) -> int:
     from walker_gait.pipeline import PipelineOptions, process_batch
 
     file_params, overrides = _pipeline_params(args)
-    options = PipelineOptions.from_params(file_params, overrides, preset=args.preset, seed=args.seed)
+    options = PipelineOptions.from_params(file_params, overrides, preset=args.preset, seed=args.seed,
+                                          passes=args.passes)
     table = process_batch(Path(args.folder), Path(args.out), options=options, workers=args.workers,
                           progress=not args.quiet)
     print(f"summary table: {table}")
@@ -303,6 +304,10 @@ def build_parser() -> argparse.ArgumentParser:
         p.add_argument("--params-file", help="ROS 2 parameters YAML (default: config/walker_gait.yaml)")
         p.add_argument("--preset", default=None, help="tracker preset: default or paper")
         p.add_argument("--seed", type=int, default=0)
+        p.add_argument("--passes", choices=("both", "forward"), default="both",
+                       help="both (default): track the recording forwards and backwards in time and keep, frame by "
+                       "frame, the estimate the depth data support better (about twice the tracking time); "
+                       "forward: one pass, as the live graph tracks")
         p.add_argument("--quiet", action="store_true", help="no progress bar")
 
     p = sub.add_parser("demo", help="generate a sample walking session, process it, compare with ground truth")

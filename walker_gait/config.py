@@ -221,7 +221,8 @@ def parse_overrides(items: list[str]) -> dict[str, Any]:
     return out
 
 
-STAGES = ("floor_segmentation", "leg_tracker")
+STAGES = ("floor_segmentation", "leg_tracker", "leg_tracker_backward", "pass_scoring")
+"""Stages with a random generator of their own; new ones go at the end (an index is part of the seed)."""
 
 
 def stage_rng(seed: int, stage: str) -> Any:
@@ -233,3 +234,11 @@ def stage_rng(seed: int, stage: str) -> Any:
     import numpy as np
 
     return np.random.default_rng([int(seed), STAGES.index(stage)])
+
+
+def frame_rng(seed: int, index: int) -> Any:
+    """The generator with which the offline two-way tracking scores the passes' estimates on its ``index``-th frame
+    (``pass_scoring``): one per frame, so that passes scored in different processes draw alike."""
+    import numpy as np
+
+    return np.random.default_rng([int(seed), STAGES.index("pass_scoring"), int(index)])

@@ -110,7 +110,7 @@ def run_demo(*, out: Path, live: bool, seed: int, quiet: bool) -> int:
         res = process_recording(bag, results, options=PipelineOptions(seed=seed), progress=not quiet,
                                 ground_truth={"steps": gt["steps"]})
         print(f"\n{bag.name}: {res.frames} frames processed in {res.wall_s:.1f} s "
-              f"({res.frames / max(res.wall_s, 1e-9):.1f} frames/s)")
+              f"({res.frames / max(res.wall_s, 1e-9):.1f} frames/s); {res.tracking_note()}")
         cmp, matches = comparison(res.steps, truth)
         print("\nsteps (detected, with the ground truth alongside):")
         print(format_steps_table(res.steps, truth=matches))

@@ -15,7 +15,7 @@ import sys
 import time
 import warnings
 from collections import Counter
-from collections.abc import Iterator, Mapping
+from collections.abc import Iterable, Iterator, Mapping
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
 from typing import Any
@@ -24,6 +24,7 @@ import numpy as np
 
 from walker_gait import __version__
 from walker_gait.config import ParameterError, build
+from walker_gait.core.smoothing import PassTrack
 from walker_gait.core.types import CameraIntrinsics, FloorPlane, GaitEvent, LegPose, Step
 
 #: ``process --param`` keys are ``<node>.<param>``; these are the nodes whose parameters apply offline.
@@ -49,11 +50,17 @@ class PipelineOptions:
     write_mcap: bool = True
     write_report: bool = True
     prefetch: int = 4  # frames decoded + segmented ahead in a forked worker process (0: all in this process)
+    passes: str = "both"  # "both": tracked forwards and backwards, merged (core.smoothing); "forward": as the live graph
+    store_memory_mb: int = 256  # "both": prepared frames kept in memory up to this size, beyond it in a temporary file
 
     def __post_init__(self) -> None:
         from walker_gait.core.gait import GaitConfig
         from walker_gait.core.segmentation import SegmenterConfig
+        from walker_gait.core.smoothing import PASSES
         from walker_gait.core.tracker import preset as tracker_preset
+
+        if self.passes not in PASSES:
+            raise ParameterError(f"passes must be one of {', '.join(PASSES)}, got {self.passes!r}")
 
         if self.segmenter is None:
             self.segmenter = SegmenterConfig()
@@ -169,12 +176,95 @@ class PreparedFrame:
         self.__dict__.update(state)
 
 
+class FrameStore:
+    """Prepared frames kept for the backward tracking pass, in a file (a temporary one, in memory up to
+    ``memory_mb``, or ``path``, which a second process may read with :meth:`read` as frames are added).
+
+    A frame is stored as it travels between processes (foreground depth sparse, the no-depth mask as bits) without
+    its points: they are the back-projection of the foreground depth's pixels (the segmenter selects both with
+    one mask), recomputed on reading with the projector's arithmetic, so a frame reads back bit for bit.  About
+    0.25 MB a frame of a 640x480 camera with the user at the walker: a five-minute session at 30 Hz writes ~2 GB
+    to the temporary directory (``TMPDIR``), removed when the store is closed.
+    """
+
+    def __init__(self, *, memory_mb: int = 256, path: Path | None = None) -> None:
+        import tempfile
+
+        from walker_gait.core.depth import DepthProjector
+
+        self._file: Any = (tempfile.SpooledTemporaryFile(max_size=max(0, int(memory_mb)) * 2**20) if path is None
+                           else open(path, "w+b"))  # noqa: SIM115 - closed by close()
+        self._index: list[tuple[int, int]] = []
+        self._end = 0
+        self._projector = DepthProjector()
+
+    def __len__(self) -> int:
+        return len(self._index)
+
+    def append(self, frame: PreparedFrame) -> tuple[int, int]:
+        """Add ``frame``; returns where it lies in the file (``offset, length``), written through to the file."""
+        import pickle
+
+        state = frame.__getstate__()
+        state.pop("points")
+        blob = pickle.dumps(state, protocol=pickle.HIGHEST_PROTOCOL)
+        self._file.seek(self._end)
+        self._file.write(blob)
+        self._file.flush()
+        where = (self._end, len(blob))
+        self._index.append(where)
+        self._end += len(blob)
+        return where
+
+    def __getitem__(self, i: int) -> PreparedFrame:
+        return self._read(self._file, *self._index[i])
+
+    def read(self, path: Path, offset: int, length: int) -> PreparedFrame:
+        """The frame at ``offset`` in the store file ``path`` (another process's :meth:`append` told where)."""
+        with open(path, "rb") as fh:
+            return self._read(fh, offset, length)
+
+    def _read(self, fh: Any, offset: int, length: int) -> PreparedFrame:
+        import pickle
+
+        fh.seek(offset)
+        state = pickle.loads(fh.read(length))  # noqa: S301 - written by a FrameStore of this run
+        _, _, idx, values = state["_depth_sparse"]
+        self._projector.set_intrinsics(state["intrinsics"])
+        rx, ry = self._projector.rays
+        z = np.asarray(values, dtype=np.float32)
+        with np.errstate(over="ignore", invalid="ignore"):
+            points = np.stack([z * rx.reshape(-1)[idx], z * ry.reshape(-1)[idx], z], axis=1)
+        frame = PreparedFrame.__new__(PreparedFrame)
+        frame.__setstate__(state)
+        frame.points = points
+        return frame
+
+    def close(self) -> None:
+        self._file.close()
+
+
+@dataclasses.dataclass
+class Finished:
+    """What :meth:`FrameProcessor.finish` returns: the frames' results not returned by ``track`` yet (with
+    ``passes="both"`` all of them, in order) and the gait analyzer's last events and steps."""
+
+    results: list[FrameResult]
+    events: list[GaitEvent]
+    steps: list[Step]
+    backward_share: float = math.nan  # "both": fraction of the frames whose pose came from the backward pass
+
+
 class FrameProcessor:
     """All stages for one camera, frame by frame (the offline twin of the live node graph).
 
     Two halves that may run in different processes, each touching only its own state:
     :meth:`set_camera_info` + :meth:`prepare` (decode, back-project, segment) and :meth:`track`
     (tracker + gait analyzer); :meth:`process` runs both.
+
+    With ``options.passes == "both"`` :meth:`track` runs the forward tracking pass only and keeps the frame
+    (:class:`FrameStore`); :meth:`finish` then tracks the frames backwards, merges the two passes
+    (:mod:`walker_gait.core.smoothing`) and runs the gait analyzer over the merged poses.
     """
 
     def __init__(self, options: PipelineOptions) -> None:
@@ -193,6 +283,12 @@ class FrameProcessor:
         self._info_key: Any = None
         self._tracker_intrinsics: CameraIntrinsics | None = None
         self._last_stamp = -math.inf
+        self._two_way = options.passes == "both"
+        self.keep_frames = True  # "both": keep the frames for the backward pass (False: another process keeps them)
+        self._store: FrameStore | None = None
+        self._scorer: Any = None
+        # "both": per frame the forward pass's pose, its score, stage times, floor and foreground size
+        self._fwd: list[tuple[LegPose, float, dict[str, float], FloorPlane, int]] = []
 
     def set_camera_info(self, info: Any) -> None:
         """Apply a CameraInfo (``CameraInfoData`` or any object with width/height/k/d/p/distortion_model)."""
@@ -232,8 +328,9 @@ class FrameProcessor:
                              timings_ms={"depth": (t1 - t0) * 1e3, "segmentation": (t2 - t1) * 1e3},
                              no_depth=seg.no_depth)
 
-    def track(self, frame: PreparedFrame) -> FrameResult:
-        """Tracker and gait analyzer on a prepared frame (a new calibration restarts the tracker).
+    def track(self, frame: PreparedFrame) -> FrameResult | None:
+        """Tracker and gait analyzer on a prepared frame (a new calibration restarts the tracker); with
+        ``passes="both"`` the forward tracking pass only, and None (the results come from :meth:`finish`).
 
         Raises:
             StampOrderError: the frame's stamp is not after the previous frame's (duplicate or out of order);
@@ -255,21 +352,93 @@ class FrameProcessor:
         pose = self.tracker.update(stamp=frame.stamp, points=frame.points, depth_fg=frame.depth_fg, floor=frame.floor,
                                    no_depth=frame.no_depth)
         t3 = time.perf_counter()
+        if self._two_way:
+            index = len(self._fwd)
+            score = self._score(frame, self.tracker.state, index)
+            t4 = time.perf_counter()
+            if self.keep_frames:
+                if self._store is None:
+                    self._store = FrameStore(memory_mb=self.options.store_memory_mb)
+                self._store.append(frame)
+            self._fwd.append((pose, score, dict(frame.timings_ms, tracker=(t3 - t2) * 1e3,
+                                                pass_scoring=(t4 - t3) * 1e3), frame.floor, len(frame.points)))
+            return None
         events, steps = self.analyzer.update(pose, frame.floor)
         t4 = time.perf_counter()
         timings = dict(frame.timings_ms, tracker=(t3 - t2) * 1e3, gait=(t4 - t3) * 1e3)
         return FrameResult(pose=pose, floor=frame.floor, events=list(events), steps=list(steps),
                            n_foreground=len(frame.points), timings_ms=timings)
 
+    def _score(self, frame: PreparedFrame, state: Any, index: int) -> float:
+        """Log likelihood of a pass's ``state`` on the ``index``-th tracked frame: one scorer and one generator per
+        frame (``frame_rng``), so that the forward pass in one process and the backward pass in another score
+        alike."""
+        from walker_gait.config import frame_rng
+        from walker_gait.core.smoothing import score_passes
+        from walker_gait.core.tracker import LegTracker
+
+        if self._scorer is None or self._scorer.intrinsics != frame.intrinsics:
+            self._scorer = LegTracker(self.options.tracker, frame.intrinsics, rng=frame_rng(self.options.seed, 0),
+                                      mounting=self.options.mounting)
+        return float(score_passes(self._scorer, frame, [state], rng=frame_rng(self.options.seed, index))[0])
+
+    def backward(self, frames: Any, *, progress: Any = None) -> PassTrack:
+        """The backward tracking pass over ``frames`` (a :class:`FrameStore` or sequence of prepared frames: every
+        frame the forward pass tracked, in recording order), each estimate scored on its frame."""
+        from walker_gait.config import stage_rng
+        from walker_gait.core.smoothing import track_pass
+        from walker_gait.core.tracker import LegTracker
+
+        def make(frame: Any) -> LegTracker:
+            return LegTracker(self.options.tracker, frame.intrinsics,
+                              rng=stage_rng(self.options.seed, "leg_tracker_backward"), mounting=self.options.mounting)
+
+        return track_pass(make, frames, backward=True, score=lambda i, f, x: self._score(f, x, i), progress=progress)
+
     def process(self, *, stamp: float, data: Any, encoding: str, width: int, height: int, step: int,
-                is_bigendian: bool) -> FrameResult:
-        """Run every stage on one depth image (call :meth:`set_camera_info` first)."""
+                is_bigendian: bool) -> FrameResult | None:
+        """Run every stage on one depth image (call :meth:`set_camera_info` first); None as :meth:`track`."""
         return self.track(self.prepare(stamp=stamp, data=data, encoding=encoding, width=width, height=height,
                                        step=step, is_bigendian=is_bigendian))
 
-    def finish(self) -> tuple[list[GaitEvent], list[Step]]:
+    def finish(self, *, backward: PassTrack | None = None, progress: Any = None) -> Finished:
+        """End of the recording.  ``passes="both"``: the backward pass (``backward``, when another process ran it
+        over the same frames, else over the frames kept here; ``progress`` wraps its loop's frame indices, e.g. a
+        tqdm bar), the passes merged (:func:`walker_gait.core.smoothing.merge_passes`), the gait analyzer over the
+        merged poses.  Then the gait analyzer's last events and steps."""
+        results: list[FrameResult] = []
+        share = math.nan
+        if self._two_way and self._fwd:
+            from walker_gait.core.smoothing import merge_passes
+
+            fwd, self._fwd = self._fwd, []
+            store, self._store = self._store, None
+            try:
+                if backward is None:
+                    if store is None:
+                        raise RuntimeError("no frames kept for the backward pass (keep_frames is off)")
+                    backward = self.backward(store, progress=progress)
+            finally:
+                if store is not None:
+                    store.close()
+            n = len(fwd)
+            if len(backward.poses) != n:
+                raise RuntimeError(f"the backward pass covers {len(backward.poses)} frames, the forward pass {n}")
+            forward = PassTrack(poses=[f[0] for f in fwd], scores=np.array([f[1] for f in fwd], dtype=np.float64),
+                                tracker_ms=np.zeros(n), scoring_ms=np.zeros(n))
+            merged = merge_passes([forward, backward])
+            share = merged.share(1)
+            for i, ((_, _, fwd_ms, floor, n_fg), pose) in enumerate(zip(fwd, merged.poses)):
+                t0 = time.perf_counter()
+                events, steps = self.analyzer.update(pose, floor)
+                t1 = time.perf_counter()
+                timings = dict(fwd_ms, tracker_backward=float(backward.tracker_ms[i]),
+                               pass_scoring=fwd_ms.get("pass_scoring", 0.0) + float(backward.scoring_ms[i]),
+                               gait=(t1 - t0) * 1e3)
+                results.append(FrameResult(pose=pose, floor=floor, events=list(events), steps=list(steps),
+                                           n_foreground=n_fg, timings_ms=timings))
         events, steps = self.analyzer.finish()
-        return list(events), list(steps)
+        return Finished(results=results, events=list(events), steps=list(steps), backward_share=share)
 
 
 class MissingCalibration(ValueError):
@@ -289,10 +458,20 @@ class ProcessResult:
     wall_s: float
     timings_ms: dict[str, float]
     files: list[Path]
+    passes: str = "forward"
+    frames_from_backward_pass: int | None = None  # passes "both": frames whose pose came from the backward pass
+
+    def tracking_note(self) -> str:
+        """How the legs were tracked, in words."""
+        if self.passes != "both":
+            return "tracked forwards (one pass)"
+        return (f"tracked forwards and backwards, {self.frames_from_backward_pass} of {self.frames} frames' poses "
+                "from the backward pass")
 
     def describe(self) -> str:
         lines = [f"{self.input}: {self.frames} frames in {self.wall_s:.1f} s "
-                 f"({self.frames / max(self.wall_s, 1e-9):.1f} frames/s), {len(self.steps)} steps"]
+                 f"({self.frames / max(self.wall_s, 1e-9):.1f} frames/s), {len(self.steps)} steps; "
+                 + self.tracking_note()]
         if self.skipped:
             lines.append("skipped frames: " + ", ".join(f"{k} x{v}" for k, v in sorted(self.skipped.items())))
         lines.append(format_steps_table(self.steps))
@@ -350,6 +529,15 @@ def _progress(iterable: Any, *, total: int, enabled: bool, desc: str) -> Any:
     return tqdm(iterable, total=total, desc=desc, unit="frame", disable=not sys.stderr.isatty(), leave=False)
 
 
+def _progress_bar(*, total: int, enabled: bool, desc: str) -> Any:
+    """A bar advanced by hand (``update(n)``), or None."""
+    if not enabled:
+        return None
+    from tqdm import tqdm
+
+    return tqdm(total=total, desc=desc, unit="frame", disable=not sys.stderr.isatty(), leave=False)
+
+
 def _prepare_one(proc: FrameProcessor, frame: Any) -> PreparedFrame | Exception:
     """Decode and segment ``frame``; a per-frame input problem is returned (the caller skips it in order)."""
     from walker_gait.core.depth import CameraInfoError, DepthDecodeError
@@ -390,57 +578,123 @@ def _floor_up_hint(configured: Any, floors: list[FloorPlane]) -> tuple[tuple[flo
     return (flipped_hint if flipped else hint), flipped
 
 
-def _prepared_frames(recording: Any, proc: FrameProcessor, *, prefetch: int) -> Iterator[tuple[Any, Any]]:
-    """``(frame, PreparedFrame or per-frame error)`` in recording order.
+class _Front:
+    """The front half of :func:`process_recording`: ``(frame, PreparedFrame or per-frame error)`` in recording order
+    (:meth:`frames`), and with two tracking passes the backward one (:meth:`backward`).
 
-    With ``prefetch`` > 0 (and ``fork`` available) a worker process reads, decodes and segments up
-    to that many frames ahead while the caller tracks: the two halves run on two cores.  Results
-    are identical to the inline path: the front half's state (projector, segmenter and its seeded
-    RNG) is forked once and only the worker advances it, and :meth:`FrameProcessor.track` takes the
-    calibration from each prepared frame.  The recording's warnings are re-issued here in order; an
-    error reading the recording is raised here.
+    With ``prefetch`` > 0 (and ``fork`` available) a worker process reads, decodes and segments up to that many
+    frames ahead while the caller tracks: the two halves run on two cores.  Results are identical to the inline
+    path: the front half's state (projector, segmenter and its seeded RNG) is forked once and only the worker
+    advances it, and :meth:`FrameProcessor.track` takes the calibration from each prepared frame.  With two passes
+    (``two_way``) the worker keeps every frame the forward pass will track in a :class:`FrameStore` file and sends
+    only where it lies, so it runs ahead without a bound; after the last frame it tracks them backwards
+    (:meth:`FrameProcessor.backward`) while the caller still tracks forwards, and :meth:`backward` collects that.
+    It refuses a frame whose stamp is not after the previous one's itself (``StampOrderError``, as ``track`` would),
+    so that both passes cover the same frames.  The recording's warnings are re-issued in the caller in order; an
+    error reading the recording is raised there.  Inline, :meth:`backward` returns None: the caller's
+    ``FrameProcessor`` keeps the frames and tracks them backwards in :meth:`FrameProcessor.finish`.
     """
-    import multiprocessing as mp
 
-    if prefetch <= 0 or not _can_fork():
-        for frame in recording.iter_frames():
-            yield frame, _prepare_one(proc, frame)
-        return
-    import queue as queue_mod
+    def __init__(self, recording: Any, proc: FrameProcessor, *, prefetch: int, two_way: bool) -> None:
+        self.recording = recording
+        self.proc = proc
+        self.forked = prefetch > 0 and _can_fork()
+        self.two_way = two_way
+        self._prefetch = prefetch
+        self._worker: Any = None
+        self._q: Any = None
+        self._dir: str | None = None
+        self._reader: FrameStore | None = None
 
-    ctx = mp.get_context("fork")
-    q = ctx.Queue(maxsize=prefetch)
-    worker = ctx.Process(target=_front_worker, args=(q, recording, proc), name="walker-gait-prepare", daemon=True)
-    worker.start()
-    try:
+    def __enter__(self) -> _Front:
+        if self.forked:
+            import multiprocessing as mp
+            import tempfile
+
+            ctx = mp.get_context("fork")
+            store = None
+            if self.two_way:
+                self._dir = tempfile.mkdtemp(prefix="walker-gait-frames-")
+                store = Path(self._dir) / "frames.bin"
+                self._reader = FrameStore(memory_mb=0)
+                self.proc.keep_frames = False  # the worker keeps them
+            self._store_path = store
+            self._q = ctx.Queue(maxsize=0 if self.two_way else self._prefetch)
+            self._worker = ctx.Process(target=_front_worker, args=(self._q, self.recording, self.proc, store),
+                                       name="walker-gait-prepare", daemon=True)
+            self._worker.start()
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        import shutil
+
+        if self._worker is not None:
+            if self._worker.is_alive():
+                self._worker.terminate()
+            self._worker.join(timeout=5.0)
+            self._q.close()
+            self._q.cancel_join_thread()
+        if self._reader is not None:
+            self._reader.close()
+        if self._dir is not None:
+            shutil.rmtree(self._dir, ignore_errors=True)
+
+    def _get(self) -> tuple[str, Any]:
+        import queue as queue_mod
+
         while True:
             try:
-                kind, payload, caught = q.get(timeout=1.0)
+                kind, payload, caught = self._q.get(timeout=1.0)
             except queue_mod.Empty:
-                if not worker.is_alive():
-                    raise RuntimeError(f"the frame-preparing worker process died (exit code {worker.exitcode})")
+                if not self._worker.is_alive():
+                    raise RuntimeError(f"the frame-preparing worker process died (exit code {self._worker.exitcode})")
                 continue
             for category, text in caught:
-                warnings.warn(text, category, stacklevel=2)
-            if kind == "done":
-                return
+                warnings.warn(text, category, stacklevel=3)
             if kind == "error":
                 raise payload
-            yield payload
-    finally:
-        if worker.is_alive():
-            worker.terminate()
-        worker.join(timeout=5.0)
-        q.close()
-        q.cancel_join_thread()
+            return kind, payload
+
+    def frames(self) -> Iterator[tuple[Any, Any]]:
+        if not self.forked:
+            for frame in self.recording.iter_frames():
+                yield frame, _prepare_one(self.proc, frame)
+            return
+        while True:
+            kind, payload = self._get()
+            if kind == "done":
+                return
+            frame, prepared = payload
+            if isinstance(prepared, tuple):  # ("stored", offset, length) in the worker's FrameStore file
+                assert self._reader is not None
+                prepared = self._reader.read(self._store_path, prepared[1], prepared[2])
+            yield frame, prepared
+
+    def backward(self, progress: Any = None) -> PassTrack | None:
+        """The worker's backward pass (None inline); ``progress``: a tqdm-like bar it advances, or None."""
+        if not (self.forked and self.two_way):
+            return None
+        while True:
+            kind, payload = self._get()
+            if kind == "bprog":
+                if progress is not None:
+                    progress.update(payload)
+                continue
+            if kind == "backward":
+                return payload
+            raise RuntimeError(f"unexpected message {kind!r} from the frame-preparing worker")
 
 
-def _front_worker(q: Any, recording: Any, proc: FrameProcessor) -> None:
-    """Worker process of :func:`_prepared_frames` (forked: the recording and processor are copies)."""
+def _front_worker(q: Any, recording: Any, proc: FrameProcessor, store_path: Path | None) -> None:
+    """Worker process of :class:`_Front` (forked: the recording and processor are copies)."""
     import signal
+
+    from walker_gait.core.gait import StampOrderError
 
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the parent's; it stops this process
     frames = recording.iter_frames()
+    store = FrameStore(path=store_path) if store_path is not None else None
+    last = -math.inf
     while True:
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
@@ -449,13 +703,40 @@ def _front_worker(q: Any, recording: Any, proc: FrameProcessor) -> None:
                 if frame is None:
                     item: tuple[str, Any] = ("done", None)
                 else:
-                    prepared = _prepare_one(proc, frame)
+                    prepared: Any = _prepare_one(proc, frame)
+                    if store is not None and not isinstance(prepared, Exception):
+                        if not prepared.stamp > last:  # as FrameProcessor.track refuses it
+                            prepared = StampOrderError(f"stamp {prepared.stamp:.6f} s is not after the previous "
+                                                       f"frame's ({last:.6f} s)")
+                        else:
+                            last = prepared.stamp
+                            prepared = ("stored", *store.append(prepared))
                     item = ("frame", (dataclasses.replace(frame, data=b""), prepared))
             except Exception as exc:  # noqa: BLE001 - raised in the parent
                 item = ("error", exc)
         q.put((*item, [(w.category, str(w.message)) for w in caught]))
         if item[0] != "frame":
-            return
+            break
+    if item[0] != "done" or store is None:
+        return
+    try:
+        done = 0
+
+        def counted(order: Iterable[int]) -> Iterator[int]:
+            nonlocal done
+            for i in order:
+                yield i
+                done += 1
+                if done % 15 == 0:
+                    q.put(("bprog", 15, []))
+            q.put(("bprog", done % 15, []))
+
+        result: tuple[str, Any] = ("backward", proc.backward(store, progress=counted))
+    except Exception as exc:  # noqa: BLE001 - raised in the parent
+        result = ("error", exc)
+    finally:
+        store.close()
+    q.put((*result, []))
 
 
 def _in_background(fn: Any, *args: Any, **kwargs: Any) -> Any:
@@ -500,33 +781,56 @@ def process_recording(path: Path, out_dir: Path, *, options: PipelineOptions | N
     timing_sum: Counter[str] = Counter()
     n_frames = 0
     tracked: list[tuple[int, str, FrameResult]] = []  # (stamp_ns, frame_id, result) for tracked.mcap
+    kept: list[tuple[int, str]] = []  # (stamp_ns, frame_id) of the frames whose results come from proc.finish()
     from walker_gait.core.depth import CameraInfoError, DepthDecodeError
     from walker_gait.core.gait import StampOrderError
 
-    for frame, prepared in _progress(_prepared_frames(recording, proc, prefetch=options.prefetch),
-                                     total=recording.frame_count, enabled=progress, desc=path.name):
-        n_frames += 1
-        try:
-            if isinstance(prepared, Exception):
-                raise prepared
-            res = proc.track(prepared)
-        except (DepthDecodeError, CameraInfoError, MissingCalibration, StampOrderError) as exc:
-            kind = getattr(exc, "kind", None) or type(exc).__name__
-            if not skipped[kind]:
-                print(f"walker-gait: warning: {path}: frame at {frame.stamp:.3f} s skipped: {exc} "
-                      "(further frames skipped for this reason are only counted)", file=sys.stderr)
-            skipped[kind] += 1
-            continue
+    def take(stamp_ns: int, frame_id: str, res: FrameResult) -> None:
         poses.append(res.pose)
         floors.append(res.floor)
         events.extend(res.events)
         steps.extend(res.steps)
         timing_sum.update(res.timings_ms)
         if options.write_mcap:
-            tracked.append((frame.stamp_ns, frame.frame_id, res))
-    tail_events, tail_steps = proc.finish()
-    events.extend(tail_events)
-    steps.extend(tail_steps)
+            tracked.append((stamp_ns, frame_id, res))
+
+    two_way = options.passes == "both"
+    with _Front(recording, proc, prefetch=options.prefetch, two_way=two_way) as front:
+        for frame, prepared in _progress(front.frames(), total=recording.frame_count, enabled=progress,
+                                         desc=f"{path.name} (forward)" if two_way else path.name):
+            n_frames += 1
+            try:
+                if isinstance(prepared, Exception):
+                    raise prepared
+                res = proc.track(prepared)
+            except (DepthDecodeError, CameraInfoError, MissingCalibration, StampOrderError) as exc:
+                kind = getattr(exc, "kind", None) or type(exc).__name__
+                if not skipped[kind]:
+                    print(f"walker-gait: warning: {path}: frame at {frame.stamp:.3f} s skipped: {exc} "
+                          "(further frames skipped for this reason are only counted)", file=sys.stderr)
+                skipped[kind] += 1
+                continue
+            if res is None:
+                kept.append((frame.stamp_ns, frame.frame_id))
+            else:
+                take(frame.stamp_ns, frame.frame_id, res)
+        backward = None
+        if front.forked and two_way:
+            bar = _progress_bar(total=len(kept), enabled=progress, desc=f"{path.name} (backward)")
+            try:
+                backward = front.backward(bar)
+            finally:
+                if bar is not None:
+                    bar.close()
+
+    def backward_bar(order: Any) -> Any:
+        return _progress(order, total=len(kept), enabled=progress, desc=f"{path.name} (backward)")
+
+    finished = proc.finish(backward=backward, progress=backward_bar)
+    for (stamp_ns, frame_id), res in zip(kept, finished.results, strict=True):
+        take(stamp_ns, frame_id, res)
+    events.extend(finished.events)
+    steps.extend(finished.steps)
     processed = len(poses)
     if processed == 0:  # nothing to write: fail before any output exists
         from walker_gait.io.bags import RecordingError
@@ -552,6 +856,8 @@ def process_recording(path: Path, out_dir: Path, *, options: PipelineOptions | N
         "input": str(path),
         "preset": options.preset,
         "seed": options.seed,
+        "passes": options.passes,
+        "frames_from_backward_pass": (round(finished.backward_share * processed) if two_way and processed else None),
         "frames_total": n_frames,
         "frames_processed": processed,
         "frames_skipped": dict(skipped),
@@ -589,7 +895,8 @@ def process_recording(path: Path, out_dir: Path, *, options: PipelineOptions | N
         report()
     return ProcessResult(input=path, out_dir=out_dir, frames=processed, skipped=dict(skipped), steps=steps,
                          events=events, poses=poses, summary=summary, wall_s=time.perf_counter() - t_start,
-                         timings_ms=timings, files=files)
+                         timings_ms=timings, files=files, passes=options.passes,
+                         frames_from_backward_pass=metadata["frames_from_backward_pass"])
 
 
 def write_tracked_mcap(path: Path, *, frames: list[tuple[int, str, FrameResult]], events: list[GaitEvent],

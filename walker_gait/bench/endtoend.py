@@ -22,7 +22,9 @@ from walker_gait.core.types import LEG_POINTS, FloorPlane, Step
 if TYPE_CHECKING:
     from walker_gait.core.segmentation import RoiConfig
 
-STAGES = ("depth", "segmentation", "tracker", "gait")
+STAGES = ("depth", "segmentation", "tracker", "tracker_backward", "pass_scoring", "gait")
+"""Per-frame stages of the offline pipeline; ``tracker`` is the forward pass (the live tracker's work), the
+backward pass and the scoring of both passes' estimates come with ``passes="both"`` only."""
 
 
 @dataclass
@@ -201,9 +203,11 @@ class PipelineRun:
 
 
 def run_pipeline(session: Any, rendered: Rendered, *, preset: str = "default", cue: str | None = None, seed: int = 0,
-                 max_frames: int | None = None, overrides: dict[str, Any] | None = None) -> PipelineRun:
+                 max_frames: int | None = None, overrides: dict[str, Any] | None = None,
+                 passes: str = "both") -> PipelineRun:
     """The offline pipeline (``FrameProcessor``) on a session's rendered frames, as ``walker-gait process``
-    runs it; tracker ``preset`` with ``overrides`` (``TrackerConfig`` fields) and ``cue``."""
+    runs it; tracker ``preset`` with ``overrides`` (``TrackerConfig`` fields) and ``cue``; ``passes`` as
+    ``PipelineOptions.passes`` (``forward``: the live graph's one pass)."""
     import dataclasses
 
     from walker_gait.core.tracker import preset as tracker_preset
@@ -216,33 +220,39 @@ def run_pipeline(session: Any, rendered: Rendered, *, preset: str = "default", c
     if changes:
         tracker = dataclasses.replace(tracker, **changes)
     proc = FrameProcessor(PipelineOptions(preset=preset, tracker=tracker, seed=seed, write_mcap=False,
-                                          write_report=False))
+                                          write_report=False, passes=passes))
     proc.set_camera_info(SimpleNamespace(**session.camera_info()))
     n = len(rendered.frames) if max_frames is None else min(len(rendered.frames), max_frames)
     intr = session.intrinsics
     run = PipelineRun(tracker_cue=tracker.cue, poses=[], steps=[], timing_ms={k: 0.0 for k in STAGES}, tracker_ms=[])
+    results = []
     for i in range(n):
         res = proc.process(stamp=float(session.stamps[i]), data=rendered.frames[i], encoding="16UC1",
                            width=intr.width, height=intr.height, step=intr.width * 2, is_bigendian=False)
+        if res is not None:
+            results.append(res)
+    finished = proc.finish()
+    for res in results + finished.results:
         for k in STAGES:
-            run.timing_ms[k] += res.timings_ms[k]
-        run.tracker_ms.append(res.timings_ms["tracker"])
+            run.timing_ms[k] += res.timings_ms.get(k, 0.0)
+        run.tracker_ms.append(res.timings_ms["tracker"])  # the forward pass: what the live tracker spends
         run.poses.append(res.pose)
         run.floors.append(res.floor)
         run.steps.extend(res.steps)
-    run.steps.extend(proc.finish()[1])
+    run.steps.extend(finished.steps)
     return run
 
 
 def evaluate(session: Any, *, preset: str = "default", cue: str | None = None, seed: int = 0,
              max_frames: int | None = None, overrides: dict[str, Any] | None = None,
-             rendered: Rendered | None = None) -> Score:
-    """Run the pipeline on ``session`` (a ``walker_gait.synth.Session``) and score it."""
+             rendered: Rendered | None = None, passes: str = "both") -> Score:
+    """Run the pipeline on ``session`` (a ``walker_gait.synth.Session``) and score it (``passes`` as
+    ``PipelineOptions.passes``)."""
     from walker_gait.bench.gait import match_steps
 
     rendered = rendered if rendered is not None else render(session, max_frames)
     run = run_pipeline(session, rendered, preset=preset, cue=cue, seed=seed, max_frames=max_frames,
-                       overrides=overrides)
+                       overrides=overrides, passes=passes)
     n = len(run.poses)
     intr = session.intrinsics
     timing, tracker_ms, poses, steps = run.timing_ms, run.tracker_ms, run.poses, run.steps

@@ -165,9 +165,10 @@ def _rendered(session: Any, cache: Path | None, name: str) -> Any:
 
 def run_session(scenario: str, seed: int, *, duration: float, tracker_seeds: tuple[int, ...],
                 overrides: dict[str, Any] | None = None, cache: Path | None = None,
-                spec: dict[str, Any] | None = None) -> list[SessionRun]:
+                spec: dict[str, Any] | None = None, passes: str = "both") -> list[SessionRun]:
     """Generate (or load the cached render of) one session and track it once per tracker seed; ``spec``:
-    ``SessionSpec`` overrides of the scenario's preset (other subjects, cameras, mounts)."""
+    ``SessionSpec`` overrides of the scenario's preset (other subjects, cameras, mounts); ``passes`` as
+    ``PipelineOptions.passes``."""
     from walker_gait.bench.endtoend import _gt_as_steps, present_frames, run_pipeline, trackable_frames
     from walker_gait.bench.gait import match_steps
 
@@ -181,7 +182,7 @@ def run_session(scenario: str, seed: int, *, duration: float, tracker_seeds: tup
     floor = session.params.mount.floor_plane()
     out = []
     for ts in tracker_seeds:
-        run = run_pipeline(session, rendered, seed=ts, overrides=overrides)
+        run = run_pipeline(session, rendered, seed=ts, overrides=overrides, passes=passes)
         pairs, _, _ = match_steps(gt, run.steps)
         out.append(SessionRun(
             key=f"{scenario}:{seed}", tracker_seed=ts, stamps=stamps,
@@ -505,10 +506,11 @@ def format_oracle(rep: dict[str, Any]) -> str:
     return "\n".join(lines)
 
 
-def _work(args: tuple[str, int, float, tuple[int, ...], dict[str, Any], Path | None, dict[str, Any]]) -> list[SessionRun]:
-    scenario, seed, duration, seeds, overrides, cache, spec = args
+def _work(args: tuple[str, int, float, tuple[int, ...], dict[str, Any], Path | None, dict[str, Any], str]
+          ) -> list[SessionRun]:
+    scenario, seed, duration, seeds, overrides, cache, spec, passes = args
     return run_session(scenario, seed, duration=duration, tracker_seeds=seeds, overrides=overrides, cache=cache,
-                       spec=spec)
+                       spec=spec, passes=passes)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -526,6 +528,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--duration", type=float, default=8.0, help="s per session (absent_start: at least 14)")
     ap.add_argument("--cache", type=Path, default=Path("out/sweep/cache"), help="rendered sessions (reused)")
     ap.add_argument("--jobs", type=int, default=os.cpu_count() or 1)
+    ap.add_argument("--passes", choices=("both", "forward"), default="both",
+                    help="tracking passes, as `walker-gait process --passes` (default both; forward: the live graph's one)")
     ap.add_argument("--oracle", action="store_true", help="also step figures with true toes/heels/ankles substituted")
     ap.add_argument("--reanalyse", type=Path, metavar="DIR",
                     help="no tracking: re-run the gait analyzer on the tracked poses of the sweep in DIR (its runs.pkl)")
@@ -560,7 +564,7 @@ def main(argv: list[str] | None = None) -> int:
         print(f"sweep: bad --spec-override {a.spec_override!r}: {exc}", file=sys.stderr)
         return 2
     sessions = session_list(tuple(a.scenarios), a.per_scenario, a.base_seed)
-    jobs = [(sc, sd, a.duration, tuple(a.tracker_seeds), overrides, a.cache, spec) for sc, sd in sessions]
+    jobs = [(sc, sd, a.duration, tuple(a.tracker_seeds), overrides, a.cache, spec, a.passes) for sc, sd in sessions]
     t0 = time.perf_counter()
     runs: list[SessionRun] = []
     from tqdm import tqdm
@@ -569,7 +573,7 @@ def main(argv: list[str] | None = None) -> int:
         for res in tqdm(pool.map(_work, jobs), total=len(jobs), desc="sessions", unit="session", file=sys.stderr):
             runs.extend(res)
     config = {"override": overrides, "spec_override": spec, "scenarios": a.scenarios, "per_scenario": a.per_scenario,
-              "base_seed": a.base_seed, "tracker_seeds": a.tracker_seeds, "duration": a.duration,
+              "base_seed": a.base_seed, "tracker_seeds": a.tracker_seeds, "duration": a.duration, "passes": a.passes,
               "seconds": round(time.perf_counter() - t0, 1)}
     _write(a.out, runs, config, with_oracle=a.oracle)
     print(f"[sweep] {len(sessions)} sessions x {len(a.tracker_seeds)} tracker seeds in {time.perf_counter() - t0:.0f} s -> "

@@ -603,6 +603,51 @@ class LegTracker:
         """Current ``(P, 23)`` particle states (body frame), or None when not tracking."""
         return None if self._x is None else self._x.copy()
 
+    @property
+    def state(self) -> FloatArray | None:
+        """The 23-element state (body frame of the last frame's floor) of the pose the last :meth:`update` returned,
+        or None when it returned no pose (``NO_USER``, ``SEARCHING`` before a track)."""
+        pose = self._last_pose
+        if self._mean is None or pose is None or not bool(np.all(np.isfinite(pose.points))):
+            return None
+        return self._mean.copy()
+
+    def score(
+        self,
+        states: FloatArray,
+        *,
+        points: NDArray[np.floating],
+        depth_fg: NDArray[np.floating],
+        floor: FloorPlane,
+        no_depth: NDArray[np.bool_] | None = None,
+        rng: np.random.Generator | None = None,
+    ) -> FloatArray:
+        """Log likelihood ``(K,)`` of ``K`` states (rows of ``states``, body frame of ``floor``) on one frame: both
+        legs' every segment (no part left out as hidden), with the preset's pose priors; the track is not touched.
+
+        This is what :mod:`walker_gait.core.smoothing` compares the estimates of several tracking passes by.  The
+        inputs are those of :meth:`update`; the foreground is sub-sampled with ``rng`` (default: this tracker's
+        generator, which a tracker that also tracks should not share).  A frame without a valid floor or
+        foreground scores every state ``-inf``.
+        """
+        x = np.atleast_2d(np.asarray(states, dtype=np.float64))
+        if x.shape[1] != lm.STATE_DIM:
+            raise TrackerInputError(f"states must be (K, {lm.STATE_DIM}), got {x.shape}")
+        pts = np.asarray(points, dtype=np.float64)
+        pts = pts[np.all(np.isfinite(pts), axis=1)] if pts.ndim == 2 and pts.shape[1] == 3 else pts
+        no_floor = not (floor.valid and np.all(np.isfinite(floor.normal)) and math.isfinite(floor.offset))
+        if no_floor or pts.ndim != 2 or pts.shape[0] < self.config.min_fg_points:
+            return np.full(x.shape[0], -np.inf)
+        if not self.config.no_depth_unknown:
+            no_depth = None
+        frame = self._prepare(pts, np.asarray(depth_fg), floor, no_depth, rng=rng)
+        saved = self._hidden
+        self._hidden = _HiddenState()  # every part in the likelihood
+        try:
+            return self._evaluate(frame, x, legs=(0, 1), ref=None)
+        finally:
+            self._hidden = saved
+
     def update(
         self,
         *,
@@ -767,7 +812,7 @@ class LegTracker:
         )
 
     def _prepare(self, pts: FloatArray, depth: NDArray[np.floating], floor: FloorPlane,
-                 no_depth: NDArray[np.bool_] | None = None) -> _Frame:
+                 no_depth: NDArray[np.bool_] | None = None, *, rng: np.random.Generator | None = None) -> _Frame:
         cfg = self.config
         body = BodyFrame.from_floor(floor, mounting=self.mounting)
         n = pts.shape[0]
@@ -775,7 +820,7 @@ class LegTracker:
         if cfg.fg_max_points > 0:
             k = min(k, cfg.fg_max_points)
         k = min(k, n)
-        idx = self.rng.choice(n, size=k, replace=False) if k < n else np.arange(n)
+        idx = (rng or self.rng).choice(n, size=k, replace=False) if k < n else np.arange(n)
         cue = CueImage.from_depth(
             depth, intrinsics=self.intrinsics, stride=self._p2.stride, floor=floor, min_height=cfg.fg_min_height,
             unknown=no_depth,

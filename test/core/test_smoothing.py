@@ -1,0 +1,245 @@
+"""Two-way tracking: the Viterbi merge of passes, backward passes, scoring passes' states."""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+
+import numpy as np
+import pytest
+
+from walker_gait.bench.tracker import KINECT, own_sequence
+from walker_gait.core import leg_model as lm
+from walker_gait.core.smoothing import (
+    AGREE_M,
+    SWITCH_COST_PER_M,
+    PassTrack,
+    best_path,
+    blend_poses,
+    merge_passes,
+    score_passes,
+    track_pass,
+)
+from walker_gait.core.tracker import LegTracker, preset
+from walker_gait.core.types import CameraIntrinsics, FloorPlane, LegPose, TrackStatus
+
+FAST = preset("default", n_particles=48, init_rounds=3)
+
+
+def _points(t_n: int, k_n: int, offsets: np.ndarray | None = None) -> np.ndarray:
+    """(T, K, 2, 5, 3) leg points, pass k shifted by offsets[t, k] metres along x."""
+    base = np.zeros((t_n, k_n, 2, 5, 3))
+    if offsets is not None:
+        base[..., 0] += offsets[:, :, None, None]
+    return base
+
+
+def test_equal_passes_keep_the_first() -> None:
+    scores = np.zeros((20, 3))
+    path = best_path(scores, _points(20, 3))
+    assert path.dtype == np.intp and np.all(path == 0)
+
+
+def test_a_pass_without_a_pose_is_not_chosen_while_another_has_one() -> None:
+    scores = np.zeros((10, 2))
+    scores[3:6, 0] = -np.inf
+    scores[7, 0] = np.nan
+    pts = _points(10, 2)
+    pts[3:6, 0] = np.nan
+    path = best_path(scores, pts)
+    assert list(path[3:6]) == [1, 1, 1] and path[7] == 1
+    # nobody has a pose: the path stays defined, on the first pass
+    assert np.all(best_path(np.full((4, 2), -np.inf), np.full((4, 2, 2, 5, 3), np.nan)) == 0)
+
+
+def test_tracks_that_agree_switch_for_any_gain() -> None:
+    scores = np.zeros((30, 2))
+    scores[10:20, 1] = 0.01  # pass 1 slightly better in the middle, both tracks at the same place
+    path = best_path(scores, _points(30, 2))
+    assert np.all(path[10:20] == 1) and np.all(path[:10] == 0) and np.all(path[20:] == 0)
+
+
+def test_tracks_that_meet_switch_where_they_meet() -> None:
+    # pass 1 runs 40 cm from pass 0 over frames 10-19 (legs exchanged, say) and meets it before and after: it
+    # takes the stretch for any gain, switching on the frames where the tracks coincide
+    t_n = 30
+    off = np.zeros((t_n, 2))
+    off[10:20, 1] = 0.4
+    scores = np.zeros((t_n, 2))
+    scores[10:20, 1] = 0.1
+    path = best_path(scores, _points(t_n, 2, off))
+    assert np.all(path[10:20] == 1)
+
+
+@pytest.mark.parametrize(("gain", "switches"), [(3.0, False), (9.0, True)])
+def test_a_switch_between_distant_tracks_needs_a_gain_above_its_cost(gain: float, switches: bool) -> None:
+    # tracks 40 cm apart throughout, pass 0 the better one outside frames 10-19 (by 5 a frame), pass 1 inside (by
+    # `gain` a frame): going over and back costs 2 x 0.4 m x SWITCH_COST_PER_M = 80 against 10 x gain
+    assert SWITCH_COST_PER_M == 100.0
+    t_n = 30
+    off = np.zeros((t_n, 2))
+    off[:, 1] = 0.4
+    scores = np.zeros((t_n, 2))
+    scores[:, 0] = 5.0
+    scores[10:20, 0] = 0.0
+    scores[10:20, 1] = gain
+    path = best_path(scores, _points(t_n, 2, off))
+    assert np.all(path[10:20] == 1) == switches
+    assert np.all(path[:10] == 0) and np.all(path[20:] == 0)
+    assert np.all(best_path(scores, _points(t_n, 2, off), switch_cost=0.0)[10:20] == 1)
+
+
+def test_best_path_rejects_bad_shapes() -> None:
+    with pytest.raises(ValueError, match="scores"):
+        best_path(np.zeros(5), np.zeros((5, 1, 2, 5, 3)))
+    assert best_path(np.zeros((0, 2)), np.zeros((0, 2, 2, 5, 3))).shape == (0,)
+
+
+def _pose(stamp: float, x: float) -> LegPose:
+    return LegPose(stamp=stamp, points=np.full((2, 5, 3), x), status=TrackStatus.TRACKING, confidence=1.0)
+
+
+def _track(poses: list[LegPose], scores: np.ndarray) -> PassTrack:
+    n = len(poses)
+    return PassTrack(poses=poses, scores=np.asarray(scores, dtype=float), tracker_ms=np.zeros(n), scoring_ms=np.zeros(n))
+
+
+def test_merge_takes_each_frame_from_the_chosen_pass() -> None:
+    a = _track([_pose(0.1 * i, 0.0) for i in range(6)], [1, 1, 0, 0, 1, 1])
+    b = _track([_pose(0.1 * i, 0.3) for i in range(6)], [0, 0, 1, 1, 0, 0])  # 30 cm away: not blended
+    merged = merge_passes([a, b], switch_cost=0.0)
+    assert list(merged.choice) == [0, 0, 1, 1, 0, 0]
+    assert merged.poses[2] is b.poses[2] and merged.poses[0] is a.poses[0]
+    assert merged.share(1) == pytest.approx(2 / 6)
+    assert merged.scores.shape == (6, 2)
+    assert list(merge_passes([a, b]).choice) == [0] * 6  # two switches across 30 cm cost more than they gain
+    with pytest.raises(ValueError, match="same frames"):
+        merge_passes([a, _track(b.poses[:5], np.zeros(5))])
+    # passes that agree are blended frame by frame
+    c = _track([_pose(0.1 * i, 0.02) for i in range(6)], np.zeros(6))
+    np.testing.assert_allclose(merge_passes([a, c]).poses[4].points, 0.01)
+
+
+def _full_pose(x: float, *, status: TrackStatus = TrackStatus.TRACKING, confidence: float = 1.0) -> LegPose:
+    pts = np.zeros((2, 5, 3))
+    pts[..., 0] = x
+    return LegPose(stamp=1.0, points=pts, angles=np.full(12, x), segments=np.full((2, 3, 2, 3), x),
+                   radii=np.full((2, 3, 2), 0.05 + x), visibility=np.full((2, 3), 1.0 if x == 0 else 0.5),
+                   status=status, confidence=confidence)
+
+
+def test_poses_whose_feet_agree_are_averaged_and_others_kept_apart() -> None:
+    assert AGREE_M == (0.04, 0.10)
+    a = _full_pose(0.0)
+    b = _full_pose(0.02, status=TrackStatus.DEGRADED, confidence=0.3)  # feet 2 cm apart: one pose, averaged
+    m = blend_poses([a, b], 0)
+    np.testing.assert_allclose(m.points, 0.5 * (a.points + b.points))
+    np.testing.assert_allclose(m.angles, 0.01)
+    np.testing.assert_allclose(m.segments, 0.01)
+    np.testing.assert_allclose(m.radii, 0.06)
+    np.testing.assert_allclose(m.visibility, 0.75)
+    assert m.status == TrackStatus.TRACKING and m.confidence == 1.0  # the chosen pose's
+    assert blend_poses([a, b], 1).status == TrackStatus.DEGRADED
+    # 7 cm apart: half way to the cut-off, the other pose weighs 0.5 against the chosen one's 1
+    c = _full_pose(0.07)
+    np.testing.assert_allclose(blend_poses([a, c], 0).points[..., 0], 0.07 / 3)
+    # 10 cm apart or more: another mode, not mixed in
+    assert blend_poses([a, _full_pose(0.10)], 0) is a
+    assert blend_poses([a, _full_pose(0.30)], 0) is a
+    # a pass without a pose, or a chosen pose without feet, leaves the chosen pose as it is
+    empty = LegPose(stamp=1.0, points=np.full((2, 5, 3), np.nan))
+    assert blend_poses([a, empty], 0) is a and blend_poses([empty, a], 0) is empty
+
+
+@dataclass
+class _Frame:
+    stamp: float
+    points: np.ndarray
+    depth_fg: np.ndarray
+    floor: FloorPlane
+    no_depth: np.ndarray | None = None
+    intrinsics: CameraIntrinsics = KINECT
+
+
+class _Recorder:
+    """A stand-in tracker that records the stamps it is given."""
+
+    def __init__(self) -> None:
+        self.stamps: list[float] = []
+
+    def update(self, *, stamp: float, points: np.ndarray, depth_fg: np.ndarray, floor: FloorPlane,
+               no_depth: np.ndarray | None = None) -> LegPose:
+        self.stamps.append(stamp)
+        return _pose(stamp, float(points[0, 0]))
+
+    @property
+    def state(self) -> np.ndarray | None:
+        return np.full(lm.STATE_DIM, self.stamps[-1])
+
+
+def test_a_backward_pass_sees_increasing_stamps_and_returns_poses_in_recording_order() -> None:
+    floor = FloorPlane.from_camera_pose(height=0.7, pitch=0.5)
+    frames = [_Frame(stamp=0.5 + i / 30, points=np.full((1, 3), float(i)), depth_fg=np.zeros((1, 1)), floor=floor)
+              for i in range(6)]
+    other = dataclasses.replace(KINECT, fx=KINECT.fx * 1.1)
+    frames[4] = dataclasses.replace(frames[4], intrinsics=other)  # a new calibration from frame 4 on
+    frames[5] = dataclasses.replace(frames[5], intrinsics=other)
+    made: list[_Recorder] = []
+
+    def make(frame: _Frame) -> _Recorder:
+        made.append(_Recorder())
+        return made[-1]
+
+    seen: list[tuple[int, float]] = []
+    track = track_pass(make, frames, backward=True, score=lambda i, f, x: seen.append((i, float(x[0]))) or float(i))
+    assert len(made) == 2  # a fresh tracker where the calibration changes, as forwards
+    assert made[0].stamps == [-frames[5].stamp, -frames[4].stamp]
+    assert np.all(np.diff(made[1].stamps) > 0)  # what the tracker saw: time running forwards
+    assert [p.stamp for p in track.poses] == [f.stamp for f in frames]  # the poses carry their own frames' stamps
+    assert [float(p.points[0, 0, 0]) for p in track.poses] == [0.0, 1.0, 2.0, 3.0, 4.0, 5.0]
+    assert seen[0] == (5, pytest.approx(-frames[5].stamp))  # scored after each frame, with its state
+    np.testing.assert_array_equal(track.scores, np.arange(6.0))
+    assert track.tracker_ms.shape == track.scoring_ms.shape == (6,)
+    fwd = track_pass(lambda f: _Recorder(), frames)
+    assert [p.stamp for p in fwd.poses] == [f.stamp for f in frames] and np.all(np.isnan(fwd.scores))
+
+
+@pytest.fixture(scope="module")
+def seq():  # noqa: ANN201
+    s = own_sequence(n_frames=16, rng=np.random.default_rng(3))
+    return [_Frame(stamp=f.stamp, points=f.points, depth_fg=f.depth, floor=f.floor) for f in s.frames], s
+
+
+def test_the_tracker_scores_a_fitting_state_above_one_moved_off_the_data(seq) -> None:  # noqa: ANN001
+    frames, _ = seq
+    tr = LegTracker(FAST, KINECT, rng=np.random.default_rng(0))
+    assert tr.state is None
+    for f in frames[:10]:
+        tr.update(stamp=f.stamp, points=f.points, depth_fg=f.depth_fg, floor=f.floor)
+    x = tr.state
+    assert x is not None and x.shape == (lm.STATE_DIM,)
+    off = x.copy()
+    off[lm.StateLayout.ROOT.start + 1] += 0.25  # 25 cm to the side of where the legs are
+    scorer = LegTracker(FAST, KINECT, rng=np.random.default_rng(5))
+    f = frames[9]
+    s = score_passes(scorer, f, [x, off, None], rng=np.random.default_rng(1))
+    assert s[0] > s[1] and s[2] == -np.inf
+    # deterministic for a seeded generator, and the scoring leaves the scorer's own generator alone
+    before = scorer.rng.bit_generator.state
+    s2 = score_passes(scorer, f, [x, off, None], rng=np.random.default_rng(1))
+    np.testing.assert_array_equal(s, s2)
+    assert scorer.rng.bit_generator.state == before
+    # without a floor there is nothing to score against
+    bad = dataclasses.replace(f, floor=dataclasses.replace(f.floor, valid=False))
+    assert np.all(score_passes(scorer, bad, [x, off], rng=np.random.default_rng(1)) == -np.inf)
+
+
+def test_a_backward_pass_of_the_tracker_tracks_the_legs(seq) -> None:  # noqa: ANN001
+    frames, s = seq
+    track = track_pass(lambda f: LegTracker(FAST, f.intrinsics, rng=np.random.default_rng(0)), frames, backward=True)
+    assert len(track.poses) == len(frames)
+    err = np.array([np.linalg.norm(p.points - f.gt, axis=-1).mean() for p, f in zip(track.poses, s.frames)])
+    # tracked from the last frame back: the early frames (tracked last) are converged
+    assert err[:-4].mean() < 0.08, err
+    for p in track.poses:  # identity kept: the left leg on the image's right (+x), as forwards
+        assert p.points[0, :3, 0].mean() > p.points[1, :3, 0].mean()
