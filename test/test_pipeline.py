@@ -252,8 +252,9 @@ def test_frame_store_reads_frames_back_bit_for_bit(short_session: Path) -> None:
 
 
 def test_two_passes_merge_the_forward_pass_with_a_backward_one(short_session: Path, tmp_path: Path) -> None:
-    """``passes="both"``: every frame gets a pose, each one either the forward pass's (which is the one-pass
-    pipeline's, same seed) or the backward pass's, in the share reported; the outputs say which was run."""
+    """``passes="both"``: every frame gets a pose between the forward pass's (which is the one-pass pipeline's, same
+    seed) and the backward pass's (blended where their feet agree), nearer the one chosen, in the share reported;
+    the outputs say which was run."""
     import json
     from types import SimpleNamespace
 
@@ -273,16 +274,37 @@ def test_two_passes_merge_the_forward_pass_with_a_backward_one(short_session: Pa
     assert "backward" in two.describe() and "one pass" in one.describe()
 
     proc = FrameProcessor(_options(0, passes="both"))
+    prep = FrameProcessor(_options(0, passes="both"))  # prepares the same frames again for a backward pass of its own
+    frames = []
     for fr in open_recording(short_session).iter_frames():
-        proc.set_camera_info(SimpleNamespace(**{k: getattr(fr.camera_info, k) for k in
-                                                ("width", "height", "k", "d", "p", "distortion_model")}))
+        info = SimpleNamespace(**{k: getattr(fr.camera_info, k) for k in
+                                  ("width", "height", "k", "d", "p", "distortion_model")})
+        proc.set_camera_info(info)
+        prep.set_camera_info(info)
         assert proc.process(stamp=fr.stamp, data=fr.data, encoding=fr.encoding, width=fr.width, height=fr.height,
                             step=fr.step, is_bigendian=fr.is_bigendian) is None
+        frames.append(prep.prepare(stamp=fr.stamp, data=fr.data, encoding=fr.encoding, width=fr.width,
+                                   height=fr.height, step=fr.step, is_bigendian=fr.is_bigendian))
+    backward = prep.backward(frames)
     fin = proc.finish()
     assert len(fin.results) == 75
-    differ = [not np.array_equal(r.pose.points, p.points, equal_nan=True) for r, p in zip(fin.results, one.poses)]
-    assert sum(differ) == round(fin.backward_share * 75) == meta_two["frames_from_backward_pass"]
     np.testing.assert_array_equal([r.pose.points for r in fin.results], [p.points for p in two.poses])
+    nearer_backward, at_half = 0, 0
+    for r, f, b in zip(fin.results, one.poses, backward.poses):
+        m, fp, bp = r.pose.points, f.points, b.points
+        if not np.all(np.isfinite(m)):
+            continue
+        if np.array_equal(m, fp) or np.array_equal(m, bp):
+            w = 0.0 if np.array_equal(m, fp) else 1.0
+        else:  # a blend: on the segment from the forward to the backward pose, one weight for every point
+            d = (bp - fp).ravel()
+            w = float((m - fp).ravel() @ d / (d @ d))
+            np.testing.assert_allclose(m, fp + w * (bp - fp), atol=1e-9)
+            assert 0.0 < w < 1.0
+        nearer_backward += w > 0.5 + 1e-9
+        at_half += abs(w - 0.5) <= 1e-9
+    assert nearer_backward <= round(fin.backward_share * 75) <= nearer_backward + at_half
+    assert round(fin.backward_share * 75) == meta_two["frames_from_backward_pass"]
     assert [(s.stamp, s.step_length) for r in fin.results for s in r.steps] + \
         [(s.stamp, s.step_length) for s in fin.steps] == [(s.stamp, s.step_length) for s in two.steps]
 

@@ -1,4 +1,5 @@
-"""Replaying a session into the live graph (real processes, real DDS) gives the same steps as `process`."""
+"""Replaying a session into the live graph (real processes, real DDS) gives the same steps as `process` with the
+live graph's one tracking pass (`--passes forward`)."""
 
 from __future__ import annotations
 
@@ -25,7 +26,8 @@ def test_replay_into_live_graph_matches_offline_process(walking_session: Path, t
     from walker_gait.bench.live import run_live
     from walker_gait.pipeline import PipelineOptions, process_recording
 
-    offline = process_recording(walking_session, tmp_path / "out", options=PipelineOptions(seed=0), progress=False)
+    offline = process_recording(walking_session, tmp_path / "out", options=PipelineOptions(seed=0, passes="forward"),
+                                progress=False)
     assert len(offline.steps) >= 3, "the session must contain steps for the comparison to mean anything"
     # Slow enough that no stage drops a frame on a 2-core machine shared by 6 processes: by design the
     # live graph drops frames rather than queueing them when a node is slower than the camera. The

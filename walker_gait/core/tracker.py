@@ -633,14 +633,17 @@ class LegTracker:
         x = np.atleast_2d(np.asarray(states, dtype=np.float64))
         if x.shape[1] != lm.STATE_DIM:
             raise TrackerInputError(f"states must be (K, {lm.STATE_DIM}), got {x.shape}")
-        pts = np.asarray(points, dtype=np.float64)
-        pts = pts[np.all(np.isfinite(pts), axis=1)] if pts.ndim == 2 and pts.shape[1] == 3 else pts
+        pts = np.asarray(points)
+        if pts.ndim != 2 or pts.shape[1] != 3:
+            raise TrackerInputError(f"points must be (N, 3), got {pts.shape}")
+        if not np.isfinite(pts).all():
+            pts = pts[np.all(np.isfinite(pts), axis=1)]
         no_floor = not (floor.valid and np.all(np.isfinite(floor.normal)) and math.isfinite(floor.offset))
-        if no_floor or pts.ndim != 2 or pts.shape[0] < self.config.min_fg_points:
+        if no_floor or pts.shape[0] < self.config.min_fg_points:
             return np.full(x.shape[0], -np.inf)
         if not self.config.no_depth_unknown:
             no_depth = None
-        frame = self._prepare(pts, np.asarray(depth_fg), floor, no_depth, rng=rng)
+        frame = self._prepare(pts, np.asarray(depth_fg), floor, no_depth, rng=rng, all_points=False)
         saved = self._hidden
         self._hidden = _HiddenState()  # every part in the likelihood
         try:
@@ -811,8 +814,11 @@ class LegTracker:
             ess=float("nan"),
         )
 
-    def _prepare(self, pts: FloatArray, depth: NDArray[np.floating], floor: FloorPlane,
-                 no_depth: NDArray[np.bool_] | None = None, *, rng: np.random.Generator | None = None) -> _Frame:
+    def _prepare(self, pts: NDArray[np.floating], depth: NDArray[np.floating], floor: FloorPlane,
+                 no_depth: NDArray[np.bool_] | None = None, *, rng: np.random.Generator | None = None,
+                 all_points: bool = True) -> _Frame:
+        """The frame's observation for the likelihood: the sub-sampled foreground (float64), the cue image and, with
+        ``all_points``, every foreground point in the body frame (the toes' measurement and the leg blobs)."""
         cfg = self.config
         body = BodyFrame.from_floor(floor, mounting=self.mounting)
         n = pts.shape[0]
@@ -825,7 +831,9 @@ class LegTracker:
             depth, intrinsics=self.intrinsics, stride=self._p2.stride, floor=floor, min_height=cfg.fg_min_height,
             unknown=no_depth,
         )
-        return _Frame(body=body, fg=pts[np.sort(idx)], fg_all_body=body.to_body(pts), cue=cue, no_depth=no_depth)
+        fg = np.asarray(pts[np.sort(idx)], dtype=np.float64)
+        all_body = body.to_body(np.asarray(pts, dtype=np.float64)) if all_points else np.empty((0, 3))
+        return _Frame(body=body, fg=fg, fg_all_body=all_body, cue=cue, no_depth=no_depth)
 
     # -- likelihood -------------------------------------------------------------
     def _cam_segments(
