@@ -219,7 +219,7 @@ def test_frames_without_a_floor_are_tracked_as_no_user(short_session: Path, tmp_
         assert (tmp_path / "out" / name).is_file(), name
 
 
-def test_frame_store_reads_frames_back_bit_for_bit(short_session: Path) -> None:
+def test_frame_store_reads_frames_back_bit_for_bit(short_session: Path, tmp_path: Path) -> None:
     """The store keeps a frame without its points and recomputes them from the foreground depth: the frames that
     come back (from the temporary file: no memory allowance) are those that went in, in any order."""
     from types import SimpleNamespace
@@ -249,6 +249,15 @@ def test_frame_store_reads_frames_back_bit_for_bit(short_session: Path) -> None:
         assert back.stamp == f.stamp and back.intrinsics == f.intrinsics and back.timings_ms == f.timings_ms
         np.testing.assert_array_equal(back.floor.normal, f.floor.normal)
     store.close()
+    # a store file that one process writes and another reads as it grows (the forked worker and the caller)
+    path = tmp_path / "frames.bin"
+    view = FrameStore.reader(path)  # may come first: the file is created empty
+    writer = FrameStore(path=path)
+    for f in frames[:3]:
+        where = writer.append(f)
+        assert view.at(*where).points.tobytes() == f.points.tobytes()
+    writer.close()
+    view.close()
 
 
 def test_two_passes_merge_the_forward_pass_with_a_backward_one(short_session: Path, tmp_path: Path) -> None:

@@ -178,7 +178,7 @@ class PreparedFrame:
 
 class FrameStore:
     """Prepared frames kept for the backward tracking pass, in a file (a temporary one, in memory up to
-    ``memory_mb``, or ``path``, which a second process may read with :meth:`read` as frames are added).
+    ``memory_mb``, or ``path``, which a second process may read as frames are added: :meth:`reader`, :meth:`at`).
 
     A frame is stored as it travels between processes (foreground depth sparse, the no-depth mask as bits) without
     its points: they are the back-projection of the foreground depth's pixels (the segmenter selects both with
@@ -193,10 +193,24 @@ class FrameStore:
         from walker_gait.core.depth import DepthProjector
 
         self._file: Any = (tempfile.SpooledTemporaryFile(max_size=max(0, int(memory_mb)) * 2**20) if path is None
-                           else open(path, "w+b"))  # noqa: SIM115 - closed by close()
+                           else open(path, "r+b" if path.exists() else "w+b"))  # noqa: SIM115 - closed by close()
         self._index: list[tuple[int, int]] = []
         self._end = 0
         self._projector = DepthProjector()
+
+    @classmethod
+    def reader(cls, path: Path) -> FrameStore:
+        """A read-only view of the store file ``path`` that another process appends to (created empty if missing,
+        so that the writer may open it after the reader)."""
+        if not path.exists():
+            path.touch()
+        store = cls.__new__(cls)
+        store._file = open(path, "rb")  # noqa: SIM115 - closed by close()
+        store._index, store._end = [], 0
+        from walker_gait.core.depth import DepthProjector
+
+        store._projector = DepthProjector()
+        return store
 
     def __len__(self) -> int:
         return len(self._index)
@@ -217,18 +231,14 @@ class FrameStore:
         return where
 
     def __getitem__(self, i: int) -> PreparedFrame:
-        return self._read(self._file, *self._index[i])
+        return self.at(*self._index[i])
 
-    def read(self, path: Path, offset: int, length: int) -> PreparedFrame:
-        """The frame at ``offset`` in the store file ``path`` (another process's :meth:`append` told where)."""
-        with open(path, "rb") as fh:
-            return self._read(fh, offset, length)
-
-    def _read(self, fh: Any, offset: int, length: int) -> PreparedFrame:
+    def at(self, offset: int, length: int) -> PreparedFrame:
+        """The frame stored at ``offset`` (what :meth:`append`, perhaps another process's, returned)."""
         import pickle
 
-        fh.seek(offset)
-        state = pickle.loads(fh.read(length))  # noqa: S301 - written by a FrameStore of this run
+        self._file.seek(offset)
+        state = pickle.loads(self._file.read(length))  # noqa: S301 - written by a FrameStore of this run
         _, _, idx, values = state["_depth_sparse"]
         self._projector.set_intrinsics(state["intrinsics"])
         rx, ry = self._projector.rays
@@ -373,13 +383,14 @@ class FrameProcessor:
         """Log likelihood of a pass's ``state`` on the ``index``-th tracked frame: one scorer and one generator per
         frame (``frame_rng``), so that the forward pass in one process and the backward pass in another score
         alike."""
-        from walker_gait.config import frame_rng
+        from walker_gait.config import frame_rng, stage_rng
         from walker_gait.core.smoothing import score_passes
         from walker_gait.core.tracker import LegTracker
 
         if self._scorer is None or self._scorer.intrinsics != frame.intrinsics:
-            self._scorer = LegTracker(self.options.tracker, frame.intrinsics, rng=frame_rng(self.options.seed, 0),
-                                      mounting=self.options.mounting)
+            # scores with the frame's own generator (below), never its own
+            self._scorer = LegTracker(self.options.tracker, frame.intrinsics,
+                                      rng=stage_rng(self.options.seed, "pass_scoring"), mounting=self.options.mounting)
         return float(score_passes(self._scorer, frame, [state], rng=frame_rng(self.options.seed, index))[0])
 
     def backward(self, frames: Any, *, progress: Any = None) -> PassTrack:
@@ -605,6 +616,7 @@ class _Front:
         self._q: Any = None
         self._dir: str | None = None
         self._reader: FrameStore | None = None
+        self._store_path: Path | None = None
 
     def __enter__(self) -> _Front:
         if self.forked:
@@ -612,15 +624,14 @@ class _Front:
             import tempfile
 
             ctx = mp.get_context("fork")
-            store = None
             if self.two_way:
                 self._dir = tempfile.mkdtemp(prefix="walker-gait-frames-")
-                store = Path(self._dir) / "frames.bin"
-                self._reader = FrameStore(memory_mb=0)
+                self._store_path = Path(self._dir) / "frames.bin"
+                self._reader = FrameStore.reader(self._store_path)
                 self.proc.keep_frames = False  # the worker keeps them
-            self._store_path = store
             self._q = ctx.Queue(maxsize=0 if self.two_way else self._prefetch)
-            self._worker = ctx.Process(target=_front_worker, args=(self._q, self.recording, self.proc, store),
+            self._worker = ctx.Process(target=_front_worker,
+                                       args=(self._q, self.recording, self.proc, self._store_path),
                                        name="walker-gait-prepare", daemon=True)
             self._worker.start()
         return self
@@ -667,7 +678,7 @@ class _Front:
             frame, prepared = payload
             if isinstance(prepared, tuple):  # ("stored", offset, length) in the worker's FrameStore file
                 assert self._reader is not None
-                prepared = self._reader.read(self._store_path, prepared[1], prepared[2])
+                prepared = self._reader.at(prepared[1], prepared[2])
             yield frame, prepared
 
     def backward(self, progress: Any = None) -> PassTrack | None:
