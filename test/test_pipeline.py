@@ -297,6 +297,10 @@ def test_two_passes_merge_the_forward_pass_with_a_backward_one(short_session: Pa
     backward = prep.backward(frames)
     fin = proc.finish()
     assert len(fin.results) == 75
+    # the merged passes are kept: the forward one is the one-pass pipeline's, the backward one ours
+    assert len(fin.passes) == 2 and all(len(p.poses) == 75 for p in fin.passes)
+    np.testing.assert_array_equal([p.points for p in fin.passes[0].poses], [p.points for p in one.poses])
+    np.testing.assert_array_equal([p.points for p in fin.passes[1].poses], [p.points for p in backward.poses])
     np.testing.assert_array_equal([r.pose.points for r in fin.results], [p.points for p in two.poses])
     nearer_backward, at_half = 0, 0
     for r, f, b in zip(fin.results, one.poses, backward.poses):
@@ -316,6 +320,16 @@ def test_two_passes_merge_the_forward_pass_with_a_backward_one(short_session: Pa
     assert round(fin.backward_share * 75) == meta_two["frames_from_backward_pass"]
     assert [(s.stamp, s.step_length) for r in fin.results for s in r.steps] + \
         [(s.stamp, s.step_length) for s in fin.steps] == [(s.stamp, s.step_length) for s in two.steps]
+    # the steps are the analyzer's on the merged poses, those the two passes alone do not both see alike doubted
+    from walker_gait.bench.gait import run_analyzer
+    from walker_gait.core.smoothing import confirm_steps
+
+    floors = [r.floor for r in fin.results]
+    plain = run_analyzer([r.pose for r in fin.results], floors).steps
+    per_pass = [run_analyzer(p.poses, floors).steps for p in fin.passes]
+    got = [s for r in fin.results for s in r.steps] + fin.steps
+    assert [(s.stamp, s.step_length) for s in got] == [(s.stamp, s.step_length) for s in plain]
+    assert [s.confidence for s in got] == [s.confidence for s in confirm_steps(plain, per_pass)]
 
 
 def test_passes_must_be_known() -> None:

@@ -263,6 +263,7 @@ class Finished:
     events: list[GaitEvent]
     steps: list[Step]
     backward_share: float = math.nan  # "both": fraction of the frames whose pose came from the backward pass
+    passes: tuple[PassTrack, ...] = ()  # "both": the forward and backward passes that were merged (for re-merging)
 
 
 class FrameProcessor:
@@ -419,8 +420,10 @@ class FrameProcessor:
         merged poses.  Then the gait analyzer's last events and steps."""
         results: list[FrameResult] = []
         share = math.nan
+        kept: tuple[PassTrack, ...] = ()
         if self._two_way and self._fwd:
-            from walker_gait.core.smoothing import merge_passes
+            from walker_gait.core.gait import GaitAnalyzer
+            from walker_gait.core.smoothing import confirm_steps, merge_passes
 
             fwd, self._fwd = self._fwd, []
             store, self._store = self._store, None
@@ -438,18 +441,35 @@ class FrameProcessor:
             forward = PassTrack(poses=[f[0] for f in fwd], scores=np.array([f[1] for f in fwd], dtype=np.float64),
                                 tracker_ms=np.zeros(n), scoring_ms=np.zeros(n))
             merged = merge_passes([forward, backward])
-            share = merged.share(1)
+            share, kept = merged.share(1), (forward, backward)
+            floors = [f[3] for f in fwd]
+            # each pass analysed alone: a merged step that both passes see alike is confirmed (confirm_steps)
+            pass_ms = np.zeros(n)
+            per_pass: list[list[Step]] = []
+            for track in kept:
+                alone = GaitAnalyzer(self.options.gait)
+                found: list[Step] = []
+                for i, (pose, floor) in enumerate(zip(track.poses, floors)):
+                    t0 = time.perf_counter()
+                    found.extend(alone.update(pose, floor)[1])
+                    pass_ms[i] += (time.perf_counter() - t0) * 1e3
+                found.extend(alone.finish()[1])
+                per_pass.append(found)
             for i, ((_, _, fwd_ms, floor, n_fg), pose) in enumerate(zip(fwd, merged.poses)):
                 t0 = time.perf_counter()
                 events, steps = self.analyzer.update(pose, floor)
+                steps = confirm_steps(steps, per_pass)
                 t1 = time.perf_counter()
                 timings = dict(fwd_ms, tracker_backward=float(backward.tracker_ms[i]),
                                pass_scoring=fwd_ms.get("pass_scoring", 0.0) + float(backward.scoring_ms[i]),
-                               gait=(t1 - t0) * 1e3)
+                               gait=(t1 - t0) * 1e3 + float(pass_ms[i]))
                 results.append(FrameResult(pose=pose, floor=floor, events=list(events), steps=list(steps),
                                            n_foreground=n_fg, timings_ms=timings))
+            events, steps = self.analyzer.finish()
+            return Finished(results=results, events=list(events), steps=confirm_steps(steps, per_pass),
+                            backward_share=share, passes=kept)
         events, steps = self.analyzer.finish()
-        return Finished(results=results, events=list(events), steps=list(steps), backward_share=share)
+        return Finished(results=results, events=list(events), steps=list(steps), backward_share=share, passes=kept)
 
 
 class MissingCalibration(ValueError):

@@ -220,6 +220,32 @@ def test_reanalyse_runs_the_gait_analyzer_on_the_kept_poses(tmp_path: Path, caps
     assert "nope" in capsys.readouterr().err
     assert sweep.main(["--reanalyse", str(tmp_path / "missing"), "--out", str(tmp_path / "x")]) == 2
     assert "runs.pkl" in capsys.readouterr().err
+    # a two-pass run merged again from its kept passes: a backward pass 2 cm off blends in, one 30 cm off does not
+    from walker_gait.core.smoothing import PassTrack
+
+    def shifted(dx: float, score: float) -> PassTrack:
+        poses = [replace(p, points=p.points + [dx, 0.0, 0.0]) for p in sim.poses]
+        return PassTrack(poses=poses, scores=np.full(n, score), tracker_ms=np.zeros(n), scoring_ms=np.zeros(n))
+
+    two = replace(run, passes=(shifted(0.0, 0.0), shifted(0.02, 0.0)))
+    near = sweep.reanalyse([two], merge={})[0]
+    np.testing.assert_allclose(near.est, pts + [0.01, 0.0, 0.0])
+    far = sweep.reanalyse([replace(two, passes=(shifted(0.0, 0.0), shifted(0.3, -1.0)))], merge={})[0]
+    np.testing.assert_allclose(far.est, pts)
+    assert len(far.pairs) == len(sim.steps)
+    with pytest.raises(ValueError, match="no tracking passes"):
+        sweep.reanalyse([run], merge={})
+    (tmp_path / "two").mkdir()
+    sweep.save_runs([two], tmp_path / "two" / "runs.pkl")
+    assert sweep.main(["--reanalyse", str(tmp_path / "two"), "--out", str(tmp_path / "m"), "--merge-override",
+                       '{"agree_m": [0.0, 0.001]}']) == 0
+    summary = json.loads((tmp_path / "m" / "summary.json").read_text())
+    assert summary["config"]["merge_override"] == {"agree_m": [0.0, 0.001]}
+    np.testing.assert_allclose(sweep.load_runs(tmp_path / "m" / "runs.pkl")[0].est, pts)  # nothing blended
+    capsys.readouterr()
+    assert sweep.main(["--reanalyse", str(tmp_path / "two"), "--out", str(tmp_path / "x"), "--merge-override",
+                       '{"bogus": 1}']) == 2
+    assert "bogus" in capsys.readouterr().err
     # `python -m` (as make sweep runs it) writes runs another program can load
     import subprocess
     import sys

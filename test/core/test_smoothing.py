@@ -14,14 +14,16 @@ from walker_gait.core.smoothing import (
     AGREE_M,
     SWITCH_COST_PER_M,
     PassTrack,
+    UNCONFIRMED_FACTOR,
     best_path,
     blend_poses,
+    confirm_steps,
     merge_passes,
     score_passes,
     track_pass,
 )
 from walker_gait.core.tracker import LegTracker, preset
-from walker_gait.core.types import CameraIntrinsics, FloorPlane, LegPose, TrackStatus
+from walker_gait.core.types import CameraIntrinsics, FloorPlane, LegPose, Side, Step, TrackStatus
 
 FAST = preset("default", n_particles=48, init_rounds=3)
 
@@ -149,6 +151,33 @@ def test_poses_whose_feet_agree_are_averaged_and_others_kept_apart() -> None:
     # a pass without a pose, or a chosen pose without feet, leaves the chosen pose as it is
     empty = LegPose(stamp=1.0, points=np.full((2, 5, 3), np.nan))
     assert blend_poses([a, empty], 0) is a and blend_poses([empty, a], 0) is empty
+
+
+def _step(stamp: float, side: Side, length: float, confidence: float = 1.0) -> Step:
+    nan = float("nan")
+    return Step(stamp=stamp, side=side, index=0, step_length=length, step_width=0.1, step_time=0.6,
+                stride_length=nan, stride_time=nan, stance_time=nan, swing_time=nan, single_support_time=nan,
+                double_support_time=nan, confidence=confidence)
+
+
+def test_steps_are_confirmed_only_when_every_pass_sees_them_alike() -> None:
+    merged = [_step(1.0, Side.LEFT, 0.50), _step(1.6, Side.RIGHT, 0.45, 0.8), _step(2.2, Side.LEFT, 0.50),
+              _step(2.8, Side.RIGHT, 0.40), _step(3.4, Side.LEFT, float("nan"))]
+    fwd = [_step(1.05, Side.LEFT, 0.52), _step(1.6, Side.RIGHT, 0.46), _step(2.2, Side.LEFT, 0.30),
+           _step(2.8, Side.LEFT, 0.40), _step(3.4, Side.LEFT, float("nan"))]
+    bwd = [_step(0.9, Side.LEFT, 0.49), _step(1.9, Side.RIGHT, 0.45), _step(2.2, Side.LEFT, 0.50),
+           _step(2.8, Side.RIGHT, 0.40), _step(3.45, Side.LEFT, float("nan"))]
+    out = confirm_steps(merged, [fwd, bwd])
+    # 1.0: both within 0.25 s and 8 cm; 1.6: the backward pass has it 0.3 s later; 2.2: the forward pass 20 cm
+    # shorter; 2.8: the forward pass's step is the other foot's; 3.4: no length anywhere, same time: confirmed
+    assert [s.confidence for s in out] == pytest.approx([1.0, 0.8 * UNCONFIRMED_FACTOR, UNCONFIRMED_FACTOR,
+                                                         UNCONFIRMED_FACTOR, 1.0])
+    assert [(s.stamp, s.step_length) for s in out[:4]] == [(s.stamp, s.step_length) for s in merged[:4]]
+    assert confirm_steps(merged, [merged, merged]) == merged  # passes that agree change nothing
+    assert [s.confidence for s in confirm_steps(merged, [[]])] == pytest.approx([UNCONFIRMED_FACTOR, 0.32] +
+                                                                               [UNCONFIRMED_FACTOR] * 3)
+    with pytest.raises(ValueError, match="factor"):
+        confirm_steps(merged, [fwd], factor=1.5)
 
 
 @dataclass

@@ -200,6 +200,7 @@ class PipelineRun:
     timing_ms: dict[str, float]  # summed over frames, per STAGES entry
     tracker_ms: list[float]  # per frame
     floors: list[Any] = field(default_factory=list)  # FloorPlane per frame, as the pipeline estimated it
+    passes: tuple[Any, ...] = ()  # two passes: the forward and backward PassTrack that were merged into ``poses``
 
 
 def run_pipeline(session: Any, rendered: Rendered, *, preset: str = "default", cue: str | None = None, seed: int = 0,
@@ -240,6 +241,7 @@ def run_pipeline(session: Any, rendered: Rendered, *, preset: str = "default", c
         run.floors.append(res.floor)
         run.steps.extend(res.steps)
     run.steps.extend(finished.steps)
+    run.passes = finished.passes
     return run
 
 

@@ -46,11 +46,13 @@ import time
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, field, replace
 from pathlib import Path
+from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from walker_gait.core.types import ANKLE, HEEL, LEG_POINTS, TOE, FloorPlane, LegPose, Step, TrackStatus
+from walker_gait.core.smoothing import PassTrack
 
 if TYPE_CHECKING:
     from walker_gait.core.gait import GaitConfig
@@ -79,6 +81,7 @@ class SessionRun:
     tracker_ms: float  # mean per frame after the first
     poses: list[LegPose] = field(default_factory=list, repr=False)  # the pipeline's tracked poses, per frame
     floors: list[FloorPlane] = field(default_factory=list, repr=False)  # the floor the pipeline estimated, per frame
+    passes: tuple[PassTrack, ...] = field(default=(), repr=False)  # two passes: forward and backward, before merging
 
     @property
     def scenario(self) -> str:
@@ -191,20 +194,35 @@ def run_session(scenario: str, seed: int, *, duration: float, tracker_seeds: tup
             floor_offset=float(floor.offset),
             gt=gt, det=run.steps, pairs=pairs,
             tracker_ms=float(np.mean(run.tracker_ms[1:])) if n > 1 else float("nan"),
-            poses=run.poses, floors=run.floors))
+            poses=run.poses, floors=run.floors, passes=tuple(run.passes)))
     return out
 
 
-def reanalyse(runs: list[SessionRun], gait: GaitConfig | None = None) -> list[SessionRun]:
+def reanalyse(runs: list[SessionRun], gait: GaitConfig | None = None, *,
+              merge: dict[str, Any] | None = None, confirm: dict[str, Any] | None = None) -> list[SessionRun]:
     """The runs with their steps found again by a fresh gait analyzer (``GaitConfig`` ``gait``, default: the
-    pipeline's) on their own tracked poses and floors, the input the pipeline gave its analyzer."""
+    pipeline's) on their own tracked poses and floors, the input the pipeline gave its analyzer.  ``merge``
+    (keyword arguments of :func:`walker_gait.core.smoothing.merge_passes`): the two-pass runs' forward and backward
+    passes merged again that way first (joint errors and steps then come from the new merge).  Two-pass runs get
+    their steps confirmed by each pass's own steps as the pipeline does (:func:`walker_gait.core.smoothing.
+    confirm_steps`, with the keyword arguments ``confirm``)."""
     from walker_gait.bench.gait import match_steps, run_analyzer
+    from walker_gait.core.smoothing import confirm_steps, merge_passes
 
     out = []
     for r in runs:
         if len(r.poses) != len(r.stamps) or len(r.floors) != len(r.stamps):
             raise ValueError(f"run {r.key} (tracker seed {r.tracker_seed}) has no tracked poses to re-analyse")
+        if merge is not None:
+            if len(r.passes) < 2:
+                raise ValueError(f"run {r.key} (tracker seed {r.tracker_seed}) kept no tracking passes to merge again "
+                                 "(a one-pass sweep, or one written before the passes were kept)")
+            poses = merge_passes(r.passes, **merge).poses
+            r = replace(r, poses=poses, est=np.stack([p.points for p in poses]))
         det = run_analyzer(r.poses, r.floors, config=gait).steps
+        if len(r.passes) >= 2:
+            det = confirm_steps(det, [run_analyzer(p.poses, r.floors, config=gait).steps for p in r.passes],
+                                **(confirm or {}))
         pairs, _, _ = match_steps(r.gt, det)
         out.append(replace(r, det=det, pairs=pairs))
     return out
@@ -534,6 +552,12 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--reanalyse", type=Path, metavar="DIR",
                     help="no tracking: re-run the gait analyzer on the tracked poses of the sweep in DIR (its runs.pkl)")
     ap.add_argument("--gait-override", default="{}", help="with --reanalyse: GaitConfig field overrides, JSON")
+    ap.add_argument("--merge-override", default=None,
+                    help="with --reanalyse of a two-pass sweep: merge the kept forward and backward passes again with "
+                         "these merge_passes keyword arguments, JSON (e.g. '{\"switch_cost\": 300}')")
+    ap.add_argument("--confirm-override", default=None,
+                    help="with --reanalyse of a two-pass sweep: confirm_steps keyword arguments, JSON (e.g. "
+                         "'{\"within_m\": 0.05}')")
     a = ap.parse_args(argv)
     if a.compare:
         reps = {}
@@ -598,8 +622,21 @@ def _write(out: Path, runs: list[SessionRun], config: dict[str, Any], *, with_or
     print(table)
 
 
+def _check_kwargs(kwargs: dict[str, Any] | None, func: Callable[..., Any]) -> None:
+    """Refuse override keys that ``func`` does not take as keyword-only arguments."""
+    import inspect
+
+    if kwargs is None:
+        return
+    known = {n for n, p in inspect.signature(func).parameters.items() if p.kind is p.KEYWORD_ONLY}
+    unknown = sorted(set(kwargs) - known)
+    if unknown:
+        raise ValueError(f"unknown {func.__name__} argument(s) {', '.join(unknown)} (known: {', '.join(sorted(known))})")
+
+
 def _reanalyse_main(a: argparse.Namespace) -> int:
     from walker_gait.core.gait import GaitConfig
+    from walker_gait.core.smoothing import confirm_steps, merge_passes
 
     t0 = time.perf_counter()
     src = a.reanalyse / "runs.pkl"
@@ -610,11 +647,29 @@ def _reanalyse_main(a: argparse.Namespace) -> int:
         print(f"sweep: bad --gait-override {a.gait_override!r}: {exc}", file=sys.stderr)
         return 2
     try:
-        runs = reanalyse(load_runs(src), gait)
+        merge = None if a.merge_override is None else json.loads(a.merge_override)
+        if merge is not None and not isinstance(merge, dict):
+            raise ValueError("not a JSON object")
+        _check_kwargs(merge, merge_passes)
+    except (json.JSONDecodeError, TypeError, ValueError) as exc:
+        print(f"sweep: bad --merge-override {a.merge_override!r}: {exc}", file=sys.stderr)
+        return 2
+    try:
+        confirm = None if a.confirm_override is None else json.loads(a.confirm_override)
+        if confirm is not None and not isinstance(confirm, dict):
+            raise ValueError("not a JSON object")
+        _check_kwargs(confirm, confirm_steps)
+    except (json.JSONDecodeError, TypeError, ValueError) as exc:
+        print(f"sweep: bad --confirm-override {a.confirm_override!r}: {exc}", file=sys.stderr)
+        return 2
+    try:
+        runs = reanalyse(load_runs(src), gait, merge=merge, confirm=confirm)
     except (OSError, ValueError, pickle.UnpicklingError, EOFError, AttributeError) as exc:
         print(f"sweep: cannot re-analyse {src}: {exc}", file=sys.stderr)
         return 2
-    config = {"reanalysed": str(a.reanalyse), "gait_override": override, "seconds": round(time.perf_counter() - t0, 1)}
+    config = {"reanalysed": str(a.reanalyse), "gait_override": override, "merge_override": merge,
+              "confirm_override": confirm,
+              "seconds": round(time.perf_counter() - t0, 1)}
     _write(a.out, runs, config, with_oracle=a.oracle, gait=gait)
     print(f"[sweep] re-analysed {len(runs)} runs of {src} -> {a.out}", file=sys.stderr)
     return 0

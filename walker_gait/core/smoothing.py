@@ -35,7 +35,7 @@ from typing import Protocol
 import numpy as np
 from numpy.typing import NDArray
 
-from walker_gait.core.types import CameraIntrinsics, FloorPlane, LegPose
+from walker_gait.core.types import CameraIntrinsics, FloorPlane, LegPose, Step
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.intp]
@@ -51,6 +51,16 @@ AGREE_M = (0.04, 0.10)
 them with equal weights, and above which it keeps the chosen pass alone (linear between).  On synthetic sessions
 (16 sessions, forty-third session) blending took the step length MAE from 1.11 to 0.92 cm and the heel error from
 4.85 to 4.50 cm against the Viterbi choice alone; hard thresholds at 5-8 cm did about as well, 12 cm worse."""
+
+CONFIRM_S = 0.25
+"""A merged track's step is confirmed by a pass whose own steps (the gait analyzer on that pass's poses alone) hold
+one of the same side whose heel strike lies within this many seconds of it ..."""
+CONFIRM_M = 0.08
+"""... and whose step length is within this many metres of it (:func:`confirm_steps`)."""
+UNCONFIRMED_FACTOR = 0.4
+"""Factor on the confidence of a step that a pass does not confirm: a step at confidence 1 falls to 0.4, below the
+summaries' spatial cut (``GaitConfig.summary_min_confidence`` 0.5) but above their temporal one (0.25), so its time
+still counts towards the cadence while its length and width stay out of the means."""
 
 PASSES = ("forward", "both")
 """``forward``: one pass, as the live graph; ``both``: forwards and backwards, merged (offline default)."""
@@ -213,7 +223,8 @@ def merge_passes(passes: Sequence[PassTrack], *, switch_cost: float = SWITCH_COS
     pts = np.stack([np.stack([pose.points for pose in p.poses]) if n else np.zeros((0, 2, 5, 3))
                     for p in passes], axis=1)
     choice = best_path(scores, pts, switch_cost=switch_cost)
-    poses = [blend_poses([p.poses[t] for p in passes], int(k), agree_m=agree_m) for t, k in enumerate(choice)]
+    poses = [blend_poses([p.poses[t] for p in passes], int(k), agree_m=(agree_m[0], agree_m[1]))
+             for t, k in enumerate(choice)]
     return MergedTrack(poses=poses, choice=choice, scores=scores)
 
 
@@ -254,3 +265,28 @@ def blend_poses(poses: Sequence[LegPose], chosen: int, *, agree_m: tuple[float, 
 
     return dataclasses.replace(base, points=mix("points"), angles=mix("angles"), segments=mix("segments"),
                                radii=mix("radii"), visibility=mix("visibility"))
+
+
+def confirm_steps(steps: Sequence[Step], per_pass: Sequence[Sequence[Step]], *, within_s: float = CONFIRM_S,
+                  within_m: float = CONFIRM_M, factor: float = UNCONFIRMED_FACTOR) -> list[Step]:
+    """``steps`` (the gait analyzer's on the merged poses) with the confidence of each step that not every pass
+    confirms multiplied by ``factor``.
+
+    ``per_pass[k]``: the steps the gait analyzer finds on pass ``k``'s poses alone.  A pass confirms a step when it
+    has a step of the same side whose heel strike lies within ``within_s`` of it and whose length differs by at most
+    ``within_m``.  Two trackings that went wrong differently rarely agree on a wrong step: where one of them does not
+    see the step, or sees it elsewhere, the merged step is a guess between them (synthetic sweeps, forty-fourth
+    session: such steps were 5 cm off on average, the confirmed ones 0.9 cm; every step off by more than 10 cm and
+    every step that was not there were among them)."""
+    if not 0.0 <= factor <= 1.0:
+        raise ValueError(f"factor must be in [0, 1], got {factor}")
+    out = []
+    for s in steps:
+        confirmed = all(
+            any(int(o.side) == int(s.side) and abs(o.stamp - s.stamp) <= within_s
+                and (abs(o.step_length - s.step_length) <= within_m
+                     or not (math.isfinite(o.step_length) or math.isfinite(s.step_length)))
+                for o in steps_k)
+            for steps_k in per_pass)
+        out.append(s if confirmed else dataclasses.replace(s, confidence=s.confidence * factor))
+    return out
