@@ -320,16 +320,19 @@ def test_two_passes_merge_the_forward_pass_with_a_backward_one(short_session: Pa
     assert round(fin.backward_share * 75) == meta_two["frames_from_backward_pass"]
     assert [(s.stamp, s.step_length) for r in fin.results for s in r.steps] + \
         [(s.stamp, s.step_length) for s in fin.steps] == [(s.stamp, s.step_length) for s in two.steps]
-    # the steps are the analyzer's on the merged poses, those the two passes alone do not both see alike doubted
+    # the events and steps are the analyzer's on the merged poses, checked against each pass's own: steps the two
+    # passes alone do not both see alike doubted, heel strikes timed by all three analyses
     from walker_gait.bench.gait import run_analyzer
-    from walker_gait.core.smoothing import confirm_steps
+    from walker_gait.core.smoothing import check_against_passes
 
     floors = [r.floor for r in fin.results]
-    plain = run_analyzer([r.pose for r in fin.results], floors).steps
-    per_pass = [run_analyzer(p.poses, floors).steps for p in fin.passes]
+    plain = run_analyzer([r.pose for r in fin.results], floors)
+    alone = [run_analyzer(p.poses, floors) for p in fin.passes]
+    want_ev, want_st = check_against_passes(plain.events, plain.steps, [(a.events, a.steps) for a in alone])
     got = [s for r in fin.results for s in r.steps] + fin.steps
-    assert [(s.stamp, s.step_length) for s in got] == [(s.stamp, s.step_length) for s in plain]
-    assert [s.confidence for s in got] == [s.confidence for s in confirm_steps(plain, per_pass)]
+    np.testing.assert_array_equal([(s.stamp, s.step_length, s.step_time, s.confidence) for s in got],
+                                  [(s.stamp, s.step_length, s.step_time, s.confidence) for s in want_st])
+    assert sorted(e.stamp for r in fin.results for e in r.events + fin.events) == sorted(e.stamp for e in want_ev)
 
 
 def test_passes_must_be_known() -> None:

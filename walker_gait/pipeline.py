@@ -423,7 +423,7 @@ class FrameProcessor:
         kept: tuple[PassTrack, ...] = ()
         if self._two_way and self._fwd:
             from walker_gait.core.gait import GaitAnalyzer
-            from walker_gait.core.smoothing import confirm_steps, merge_passes
+            from walker_gait.core.smoothing import check_against_passes, merge_passes
 
             fwd, self._fwd = self._fwd, []
             store, self._store = self._store, None
@@ -443,31 +443,38 @@ class FrameProcessor:
             merged = merge_passes([forward, backward])
             share, kept = merged.share(1), (forward, backward)
             floors = [f[3] for f in fwd]
-            # each pass analysed alone: a merged step that both passes see alike is confirmed (confirm_steps)
+            # each pass analysed alone: the merged track's steps checked against theirs (check_against_passes)
             pass_ms = np.zeros(n)
-            per_pass: list[list[Step]] = []
+            per_pass: list[tuple[list[GaitEvent], list[Step]]] = []
             for track in kept:
                 alone = GaitAnalyzer(self.options.gait)
-                found: list[Step] = []
+                found_ev: list[GaitEvent] = []
+                found_st: list[Step] = []
                 for i, (pose, floor) in enumerate(zip(track.poses, floors)):
                     t0 = time.perf_counter()
-                    found.extend(alone.update(pose, floor)[1])
+                    ev, st = alone.update(pose, floor)
+                    found_ev.extend(ev)
+                    found_st.extend(st)
                     pass_ms[i] += (time.perf_counter() - t0) * 1e3
-                found.extend(alone.finish()[1])
-                per_pass.append(found)
+                ev, st = alone.finish()
+                per_pass.append((found_ev + list(ev), found_st + list(st)))
             for i, ((_, _, fwd_ms, floor, n_fg), pose) in enumerate(zip(fwd, merged.poses)):
                 t0 = time.perf_counter()
                 events, steps = self.analyzer.update(pose, floor)
-                steps = confirm_steps(steps, per_pass)
                 t1 = time.perf_counter()
                 timings = dict(fwd_ms, tracker_backward=float(backward.tracker_ms[i]),
                                pass_scoring=fwd_ms.get("pass_scoring", 0.0) + float(backward.scoring_ms[i]),
                                gait=(t1 - t0) * 1e3 + float(pass_ms[i]))
                 results.append(FrameResult(pose=pose, floor=floor, events=list(events), steps=list(steps),
                                            n_foreground=n_fg, timings_ms=timings))
-            events, steps = self.analyzer.finish()
-            return Finished(results=results, events=list(events), steps=confirm_steps(steps, per_pass),
-                            backward_share=share, passes=kept)
+            last_ev, last_st = self.analyzer.finish()
+            all_ev, all_st = check_against_passes([e for r in results for e in r.events] + list(last_ev),
+                                                  [s for r in results for s in r.steps] + list(last_st), per_pass)
+            ne = ns = 0
+            for r in results:  # each frame keeps the events and steps it finalised, checked
+                r.events, ne = all_ev[ne:ne + len(r.events)], ne + len(r.events)
+                r.steps, ns = all_st[ns:ns + len(r.steps)], ns + len(r.steps)
+            return Finished(results=results, events=all_ev[ne:], steps=all_st[ns:], backward_share=share, passes=kept)
         events, steps = self.analyzer.finish()
         return Finished(results=results, events=list(events), steps=list(steps), backward_share=share, passes=kept)
 

@@ -199,15 +199,17 @@ def run_session(scenario: str, seed: int, *, duration: float, tracker_seeds: tup
 
 
 def reanalyse(runs: list[SessionRun], gait: GaitConfig | None = None, *,
-              merge: dict[str, Any] | None = None, confirm: dict[str, Any] | None = None) -> list[SessionRun]:
+              merge: dict[str, Any] | None = None, confirm: dict[str, Any] | None = None,
+              refine: bool = True) -> list[SessionRun]:
     """The runs with their steps found again by a fresh gait analyzer (``GaitConfig`` ``gait``, default: the
     pipeline's) on their own tracked poses and floors, the input the pipeline gave its analyzer.  ``merge``
     (keyword arguments of :func:`walker_gait.core.smoothing.merge_passes`): the two-pass runs' forward and backward
     passes merged again that way first (joint errors and steps then come from the new merge).  Two-pass runs get
-    their steps confirmed by each pass's own steps as the pipeline does (:func:`walker_gait.core.smoothing.
-    confirm_steps`, with the keyword arguments ``confirm``)."""
+    their steps confirmed by each pass's own steps and their times refined by the passes' events as the pipeline
+    does (:func:`walker_gait.core.smoothing.confirm_steps`, with the keyword arguments ``confirm``, and
+    :func:`~walker_gait.core.smoothing.refine_event_times` unless ``refine`` is false)."""
     from walker_gait.bench.gait import match_steps, run_analyzer
-    from walker_gait.core.smoothing import confirm_steps, merge_passes
+    from walker_gait.core.smoothing import confirm_steps, merge_passes, refine_event_times
 
     out = []
     for r in runs:
@@ -219,10 +221,13 @@ def reanalyse(runs: list[SessionRun], gait: GaitConfig | None = None, *,
                                  "(a one-pass sweep, or one written before the passes were kept)")
             poses = merge_passes(r.passes, **merge).poses
             r = replace(r, poses=poses, est=np.stack([p.points for p in poses]))
-        det = run_analyzer(r.poses, r.floors, config=gait).steps
+        ga = run_analyzer(r.poses, r.floors, config=gait)
+        det = ga.steps
         if len(r.passes) >= 2:
-            det = confirm_steps(det, [run_analyzer(p.poses, r.floors, config=gait).steps for p in r.passes],
-                                **(confirm or {}))
+            alone = [run_analyzer(p.poses, r.floors, config=gait) for p in r.passes]
+            det = confirm_steps(det, [a.steps for a in alone], **(confirm or {}))
+            if refine:
+                det = refine_event_times(ga.events, det, [a.events for a in alone])[1]
         pairs, _, _ = match_steps(r.gt, det)
         out.append(replace(r, det=det, pairs=pairs))
     return out

@@ -35,7 +35,7 @@ from typing import Protocol
 import numpy as np
 from numpy.typing import NDArray
 
-from walker_gait.core.types import CameraIntrinsics, FloorPlane, LegPose, Step
+from walker_gait.core.types import CameraIntrinsics, EventKind, FloorPlane, GaitEvent, LegPose, Step
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.intp]
@@ -290,3 +290,82 @@ def confirm_steps(steps: Sequence[Step], per_pass: Sequence[Sequence[Step]], *, 
             for steps_k in per_pass)
         out.append(s if confirmed else dataclasses.replace(s, confidence=s.confidence * factor))
     return out
+
+
+def refine_event_times(events: Sequence[GaitEvent], steps: Sequence[Step], per_pass: Sequence[Sequence[GaitEvent]], *,
+                       within_s: float = CONFIRM_S,
+                       kinds: tuple[EventKind, ...] = (EventKind.HEEL_STRIKE,)) -> tuple[list[GaitEvent], list[Step]]:
+    """Events of ``kinds`` (heel strikes) timed as the mean of the merged track's event and each pass's own
+    (``per_pass[k]``: the gait analyzer's events on pass ``k``'s poses alone), where every pass has one of the same
+    foot and kind within ``within_s``; the steps' heel strikes and their temporal figures (step, stride, swing,
+    stance, single- and double-support time) follow the events they were measured from.
+
+    Each analysis times a heel strike from a noisy heel trajectory; the three estimates (the merged track's, partly
+    an average of the other two) scatter about the true time, and their mean scatters less (synthetic sweeps, sets C
+    and B, tracker seeds 0 / 1, forty-fourth session: median |heel-strike error| 0.94 / 1.01, 1.03 / 0.95 -> 0.80 /
+    0.84, 0.94 / 0.87 frames, session cadence error 1.28 / 0.92, 1.39 / 1.19 -> 1.01 / 0.77, 1.09 / 1.09 %).  Toe offs
+    (median |error| about 0.4 frames already) gained nothing consistent that way and the double-support bias grew,
+    so they keep their times by default.  An event without a mate in some pass keeps its time, and so does every
+    time measured from it."""
+    moved: dict[tuple[int, int], tuple[FloatArray, FloatArray]] = {}
+    out_events: list[GaitEvent] = []
+    for e in events:
+        mates = []
+        for evs in per_pass if e.kind in kinds else ():
+            near = [o.stamp for o in evs if o.side == e.side and o.kind == e.kind and abs(o.stamp - e.stamp) <= within_s]
+            if not near:
+                break
+            mates.append(min(near, key=lambda t: abs(t - e.stamp)))
+        else:
+            if mates:
+                e = dataclasses.replace(e, stamp=(e.stamp + sum(mates)) / (1 + len(mates)))
+        out_events.append(e)
+    for kind in EventKind:
+        for side in (0, 1):
+            pairs = [(a.stamp, b.stamp) for a, b in zip(events, out_events) if int(a.side) == side and a.kind == kind]
+            moved[(side, int(kind))] = (np.array([p[0] for p in pairs]), np.array([p[1] for p in pairs]))
+
+    def at(side: int, kind: EventKind, t: float) -> float:
+        """The refined time of the event of ``side`` and ``kind`` at ``t`` (``t`` itself when there is none)."""
+        old, new = moved[(side, int(kind))]
+        if not math.isfinite(t) or old.size == 0:
+            return t
+        i = int(np.argmin(np.abs(old - t)))
+        return float(new[i]) if abs(old[i] - t) <= 1e-6 and new[i] != old[i] else t
+
+    hs, to = EventKind.HEEL_STRIKE, EventKind.TOE_OFF
+    out_steps = []
+    for st in steps:
+        a = int(st.side)
+        b = 1 - a
+        t1 = st.stamp
+        t1n = at(a, hs, t1)
+        t_b = t1 - st.step_time  # the previous opposite heel strike (NaN: unknown)
+        t_a0 = t1 - st.stride_time  # the previous heel strike of this foot
+        to_a = t1 - st.swing_time  # this foot's toe off
+        if math.isfinite(st.stance_time) and math.isfinite(t_a0):
+            to_a = t_a0 + st.stance_time
+        to_b = t_b - st.single_support_time  # the other foot's toe off inside the step
+        refs = ((a, hs, t1), (b, hs, t_b), (a, hs, t_a0), (a, to, to_a), (a, to, t1 - st.swing_time), (b, to, to_b))
+        if all(at(side, kind, t) == t or not math.isfinite(t) for side, kind, t in refs):
+            out_steps.append(st)  # none of its events moved
+            continue
+        stance = at(a, to, to_a) - at(a, hs, t_a0)
+        single = at(b, hs, t_b) - at(b, to, to_b)
+        double = (at(b, to, to_b) - at(a, hs, t_a0)) + (at(a, to, to_a) - at(b, hs, t_b))
+        out_steps.append(dataclasses.replace(
+            st, stamp=t1n, step_time=t1n - at(b, hs, t_b), stride_time=t1n - at(a, hs, t_a0),
+            swing_time=t1n - at(a, to, t1 - st.swing_time),
+            stance_time=stance if math.isfinite(st.stance_time) else st.stance_time,
+            single_support_time=single if math.isfinite(st.single_support_time) else st.single_support_time,
+            double_support_time=double if math.isfinite(st.double_support_time) else st.double_support_time))
+    return out_events, out_steps
+
+
+def check_against_passes(events: Sequence[GaitEvent], steps: Sequence[Step],
+                         per_pass: Sequence[tuple[Sequence[GaitEvent], Sequence[Step]]]) -> tuple[list[GaitEvent], list[Step]]:
+    """The merged track's events and steps checked against each pass's own (``per_pass[k]``: the gait analyzer's
+    events and steps on pass ``k``'s poses alone): steps not confirmed doubted (:func:`confirm_steps`), events
+    and the steps' times refined (:func:`refine_event_times`)."""
+    confirmed = confirm_steps(steps, [s for _, s in per_pass])
+    return refine_event_times(events, confirmed, [e for e, _ in per_pass])
