@@ -333,6 +333,12 @@ def test_two_passes_merge_the_forward_pass_with_a_backward_one(short_session: Pa
     np.testing.assert_array_equal([(s.stamp, s.step_length, s.step_time, s.confidence) for s in got],
                                   [(s.stamp, s.step_length, s.step_time, s.confidence) for s in want_st])
     assert sorted(e.stamp for r in fin.results for e in r.events + fin.events) == sorted(e.stamp for e in want_ev)
+    # the session summary is of the steps as checked (confidences and times), not of the analyzer's own
+    assert two.summary["step_count"] == len(two.steps)
+    assert meta_two["steps_unconfirmed"] == fin.unconfirmed_steps == two.steps_unconfirmed
+    assert fin.unconfirmed_steps == sum(s.confidence != p.confidence for s, p in zip(got, plain.steps))
+    assert meta_one["steps_unconfirmed"] is None
+    assert two.summary["mean_confidence"] == pytest.approx(np.mean([s.confidence for s in two.steps]))
 
 
 def test_passes_must_be_known() -> None:

@@ -264,6 +264,7 @@ class Finished:
     steps: list[Step]
     backward_share: float = math.nan  # "both": fraction of the frames whose pose came from the backward pass
     passes: tuple[PassTrack, ...] = ()  # "both": the forward and backward passes that were merged (for re-merging)
+    unconfirmed_steps: int | None = None  # "both": steps doubted because the passes alone did not both see them alike
 
 
 class FrameProcessor:
@@ -468,13 +469,15 @@ class FrameProcessor:
                 results.append(FrameResult(pose=pose, floor=floor, events=list(events), steps=list(steps),
                                            n_foreground=n_fg, timings_ms=timings))
             last_ev, last_st = self.analyzer.finish()
-            all_ev, all_st = check_against_passes([e for r in results for e in r.events] + list(last_ev),
-                                                  [s for r in results for s in r.steps] + list(last_st), per_pass)
+            raw = [s for r in results for s in r.steps] + list(last_st)
+            all_ev, all_st = check_against_passes([e for r in results for e in r.events] + list(last_ev), raw, per_pass)
+            doubted = sum(a.confidence != b.confidence for a, b in zip(raw, all_st))
             ne = ns = 0
             for r in results:  # each frame keeps the events and steps it finalised, checked
                 r.events, ne = all_ev[ne:ne + len(r.events)], ne + len(r.events)
                 r.steps, ns = all_st[ns:ns + len(r.steps)], ns + len(r.steps)
-            return Finished(results=results, events=all_ev[ne:], steps=all_st[ns:], backward_share=share, passes=kept)
+            return Finished(results=results, events=all_ev[ne:], steps=all_st[ns:], backward_share=share, passes=kept,
+                            unconfirmed_steps=doubted)
         events, steps = self.analyzer.finish()
         return Finished(results=results, events=list(events), steps=list(steps), backward_share=share, passes=kept)
 
@@ -498,13 +501,18 @@ class ProcessResult:
     files: list[Path]
     passes: str = "forward"
     frames_from_backward_pass: int | None = None  # passes "both": frames whose pose came from the backward pass
+    steps_unconfirmed: int | None = None  # passes "both": steps doubted as the two passes did not both see them alike
 
     def tracking_note(self) -> str:
         """How the legs were tracked, in words."""
         if self.passes != "both":
             return "tracked forwards (one pass)"
-        return (f"tracked forwards and backwards, {self.frames_from_backward_pass} of {self.frames} frames' poses "
+        note = (f"tracked forwards and backwards, {self.frames_from_backward_pass} of {self.frames} frames' poses "
                 "from the backward pass")
+        if self.steps_unconfirmed:
+            note += (f"; {self.steps_unconfirmed} of {len(self.steps)} steps not seen alike by both passes (low "
+                     "confidence)")
+        return note
 
     def describe(self) -> str:
         lines = [f"{self.input}: {self.frames} frames in {self.wall_s:.1f} s "
@@ -877,7 +885,7 @@ def process_recording(path: Path, out_dir: Path, *, options: PipelineOptions | N
         if set(skipped) & {"no_camera_info", "CameraInfoError"}:
             hint = "; give the depth camera's calibration with --camera-info FILE.yaml"
         raise RecordingError(f"{path}: no frame could be processed ({dict(skipped) or 'no depth frames'}){hint}")
-    summary = _summary_dict(proc.analyzer.summary(window_s=None))
+    summary = _summary_dict(proc.analyzer.summary(window_s=None, steps=steps))  # the steps as checked (two passes)
     no_floor = sum(1 for f in floors if not f.valid)
     up_hint, flipped = _floor_up_hint(options.segmenter.floor.up_hint, floors)
     if flipped:
@@ -896,6 +904,7 @@ def process_recording(path: Path, out_dir: Path, *, options: PipelineOptions | N
         "seed": options.seed,
         "passes": options.passes,
         "frames_from_backward_pass": (round(finished.backward_share * processed) if two_way and processed else None),
+        "steps_unconfirmed": finished.unconfirmed_steps if two_way else None,
         "frames_total": n_frames,
         "frames_processed": processed,
         "frames_skipped": dict(skipped),
@@ -934,7 +943,8 @@ def process_recording(path: Path, out_dir: Path, *, options: PipelineOptions | N
     return ProcessResult(input=path, out_dir=out_dir, frames=processed, skipped=dict(skipped), steps=steps,
                          events=events, poses=poses, summary=summary, wall_s=time.perf_counter() - t_start,
                          timings_ms=timings, files=files, passes=options.passes,
-                         frames_from_backward_pass=metadata["frames_from_backward_pass"])
+                         frames_from_backward_pass=metadata["frames_from_backward_pass"],
+                         steps_unconfirmed=metadata["steps_unconfirmed"])
 
 
 def write_tracked_mcap(path: Path, *, frames: list[tuple[int, str, FrameResult]], events: list[GaitEvent],

@@ -657,6 +657,7 @@ _META_LABELS: tuple[tuple[str, str], ...] = (
     ("passes", "Tracking passes"),
     ("frames_processed", "Frames processed"),
     ("frames_from_backward_pass", "Frames from the backward pass"),
+    ("steps_unconfirmed", "Steps the two passes did not confirm"),
     ("frames_skipped_total", "Frames skipped"),
     ("processing_time_s", "Processing time (s)"),
     ("walker_gait_version", "walker_gait version"),

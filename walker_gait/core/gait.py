@@ -47,7 +47,7 @@ Method in short (all geometry in the floor plane of the *walker* frame, see ``ty
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import asdict, dataclass, field
 from enum import IntEnum
 from typing import Any
@@ -724,9 +724,11 @@ class GaitAnalyzer:
             self._flush_pending(final=True)
         return self._drain()
 
-    def summary(self, *, window_s: float | None = None) -> GaitSummaryData:
-        """Summary of the whole session (``window_s=None``) or of the last ``window_s`` seconds."""
-        steps = self._steps
+    def summary(self, *, window_s: float | None = None, steps: Sequence[Step] | None = None) -> GaitSummaryData:
+        """Summary of the whole session (``window_s=None``) or of the last ``window_s`` seconds; of ``steps`` (in
+        time order) instead of the analyzer's own where given (the offline pipeline's steps after their check
+        against the tracking passes, :func:`walker_gait.core.smoothing.check_against_passes`)."""
+        steps = list(self._steps if steps is None else steps)
         scope = GaitSummaryData.SESSION
         if window_s is not None:
             if not (math.isfinite(window_s) and window_s > 0):
