@@ -1116,6 +1116,15 @@ def test_summary_mirrors_message_and_is_json() -> None:
     w = ga.summary(window_s=5.0)
     assert w.scope == GaitSummaryData.WINDOW and w.window_duration == 5.0
     assert 0 < w.step_count < s.step_count
+    # given steps (the offline check's) are summarised instead of the analyzer's own, with its configuration
+    doubted = [replace(st, confidence=0.4) if i % 3 == 0 else st for i, st in enumerate(ga.steps)]
+    given = ga.summary(steps=doubted)
+    assert given.step_count == s.step_count and given.mean_confidence < s.mean_confidence
+    assert given.to_dict() == summarize_steps(
+        doubted, scope=GaitSummaryData.SESSION, max_step_time_s=ga.config.max_step_time_s,
+        min_confidence=ga.config.summary_min_confidence, min_time_confidence=ga.config.summary_min_time_confidence,
+        max_step_time_ratio=ga.config.summary_max_step_time_ratio).to_dict()
+    assert ga.summary(steps=doubted, window_s=5.0).step_count == w.step_count
     d = json.loads(json.dumps(s.to_dict(), allow_nan=False))
     assert d["step_count"] == s.step_count and len(d["stance_percent_side"]) == 2
     gt = summarize_steps(sim.steps, fit_step_rate=False)
