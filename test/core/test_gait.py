@@ -310,8 +310,12 @@ def test_summary_times_include_doubted_steps_so_heel_strike_errors_cancel() -> N
     assert summarize_steps(steps, min_confidence=0.5, min_time_confidence=0.25, fit_step_rate=False).cadence == (
         pytest.approx(100.0))
     assert s.step_length_mean == pytest.approx(0.5)  # the doubted step's length is not pooled
-    assert s.gait_speed == pytest.approx(sum(0.5 for k in range(1, 10) if k != 5) / sum(
-        times[k] - times[k - 1] for k in range(1, 10) if k != 5))
+    # the speed pools the cadence's steps: the doubted one's length too (along a run of steps the lengths telescope)
+    assert s.gait_speed == pytest.approx((0.5 * 8 + 0.7) / (times[9] - times[0]))
+    # a footprint placed 20 cm ahead lengthens its step and shortens the next: the speed is still exact
+    ahead = [replace(st, step_length=st.step_length - (0.2 if k == 6 else 0.0)) for k, st in enumerate(steps)]
+    assert summarize_steps(ahead, min_confidence=0.5, min_time_confidence=0.25).gait_speed == pytest.approx(
+        0.5 * 9 / (times[9] - times[0]))
     old = summarize_steps(steps, min_confidence=0.5)  # time cut = spatial cut: the run of strikes is broken
     assert old.cadence > 101.5
     assert summarize_steps(steps, min_confidence=0.5, fit_step_rate=False).cadence == pytest.approx(

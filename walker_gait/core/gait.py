@@ -1766,7 +1766,9 @@ def summarize_steps(
     missed footfall or a hesitation inside the step).  Cadence = 60 / step time, the step time fitted to the heel
     strike times of the walking steps (:func:`fitted_step_time`; with ``fit_step_rate`` false, the mean step time:
     the walkway's definition, for ground truth); gait speed = sum of step lengths / sum of step times over the
-    confident walking steps; percentages are per-step ratios to the stride time.
+    same walking steps as the cadence (along an unbroken run of steps the lengths telescope to the distance between
+    its end footprints, which a doubted step left out would shorten); percentages are per-step ratios to the stride
+    time.
     """
     nan = math.nan
     n = len(steps)
@@ -1785,9 +1787,8 @@ def summarize_steps(
     st_all = _mean_sd_cv([s.step_time for s in walking])[0]
     st_rate = fitted_step_time(walking) if fit_step_rate else st_all
     cadence = 60.0 / st_rate if math.isfinite(st_rate) and st_rate > 0 else nan
-    confident_walking = walking_steps(min_confidence)  # speed needs the step lengths too
-    lens = [s.step_length for s in confident_walking if math.isfinite(s.step_length)]
-    times = [s.step_time for s in confident_walking if math.isfinite(s.step_length)]
+    lens = [s.step_length for s in walking if math.isfinite(s.step_length)]
+    times = [s.step_time for s in walking if math.isfinite(s.step_length)]
     speed = float(sum(lens) / sum(times)) if times and sum(times) > 0 else nan
 
     def side(sd: int, attr: str, pool: list[Step]) -> tuple[float, float, float]:
