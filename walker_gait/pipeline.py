@@ -896,7 +896,7 @@ def process_recording(path: Path, out_dir: Path, *, options: PipelineOptions | N
         if set(skipped) & {"no_camera_info", "CameraInfoError"}:
             hint = "; give the depth camera's calibration with --camera-info FILE.yaml"
         raise RecordingError(f"{path}: no frame could be processed ({dict(skipped) or 'no depth frames'}){hint}")
-    summary = _summary_dict(proc.analyzer.summary(window_s=None, steps=steps))  # the steps as checked (two passes)
+    summary = _summary_dict(proc.analyzer.summary(window_s=None, steps=steps, checked=two_way))  # as checked (two passes)
     no_floor = sum(1 for f in floors if not f.valid)
     up_hint, flipped = _floor_up_hint(options.segmenter.floor.up_hint, floors)
     if flipped:

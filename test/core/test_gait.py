@@ -310,12 +310,15 @@ def test_summary_times_include_doubted_steps_so_heel_strike_errors_cancel() -> N
     assert summarize_steps(steps, min_confidence=0.5, min_time_confidence=0.25, fit_step_rate=False).cadence == (
         pytest.approx(100.0))
     assert s.step_length_mean == pytest.approx(0.5)  # the doubted step's length is not pooled
-    # the speed pools the cadence's steps: the doubted one's length too (along a run of steps the lengths telescope)
-    assert s.gait_speed == pytest.approx((0.5 * 8 + 0.7) / (times[9] - times[0]))
-    # a footprint placed 20 cm ahead lengthens its step and shortens the next: the speed is still exact
+    assert s.gait_speed == pytest.approx(sum(0.5 for k in range(1, 10) if k != 5) / sum(
+        times[k] - times[k - 1] for k in range(1, 10) if k != 5))
+    # steps checked against two tracking passes: the speed pools the cadence's steps, the doubted one's length too;
+    # a footprint placed 20 cm ahead lengthens its step and shortens the next (lengths telescope): the speed is exact
+    assert summarize_steps(steps, min_confidence=0.5, min_time_confidence=0.25,
+                           min_speed_confidence=0.25).gait_speed == pytest.approx((0.5 * 8 + 0.7) / (times[9] - times[0]))
     ahead = [replace(st, step_length=st.step_length - (0.2 if k == 6 else 0.0)) for k, st in enumerate(steps)]
-    assert summarize_steps(ahead, min_confidence=0.5, min_time_confidence=0.25).gait_speed == pytest.approx(
-        0.5 * 9 / (times[9] - times[0]))
+    assert summarize_steps(ahead, min_confidence=0.5, min_time_confidence=0.25,
+                           min_speed_confidence=0.25).gait_speed == pytest.approx(0.5 * 9 / (times[9] - times[0]))
     old = summarize_steps(steps, min_confidence=0.5)  # time cut = spatial cut: the run of strikes is broken
     assert old.cadence > 101.5
     assert summarize_steps(steps, min_confidence=0.5, fit_step_rate=False).cadence == pytest.approx(
@@ -326,6 +329,10 @@ def test_summary_times_include_doubted_steps_so_heel_strike_errors_cancel() -> N
     ga = GaitAnalyzer(GaitConfig())
     ga._steps = [replace(st, confidence=0.4 if k == 5 else 1.0) for k, st in enumerate(steps)]
     assert ga.summary().cadence == pytest.approx(s.cadence)
+    assert ga.summary().gait_speed == pytest.approx(s.gait_speed)
+    assert ga.summary(checked=True).gait_speed == pytest.approx(
+        summarize_steps(ga._steps, min_confidence=0.5, min_time_confidence=0.25, min_speed_confidence=0.25).gait_speed)
+    assert ga.summary(checked=True).gait_speed != pytest.approx(s.gait_speed)
     for bad in ({"summary_min_time_confidence": 0.6}, {"summary_min_time_confidence": -0.1},
                 {"summary_min_confidence": 1.5, "summary_min_time_confidence": 0.5}):
         with pytest.raises(GaitInputError):

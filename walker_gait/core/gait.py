@@ -724,10 +724,12 @@ class GaitAnalyzer:
             self._flush_pending(final=True)
         return self._drain()
 
-    def summary(self, *, window_s: float | None = None, steps: Sequence[Step] | None = None) -> GaitSummaryData:
+    def summary(self, *, window_s: float | None = None, steps: Sequence[Step] | None = None,
+                checked: bool = False) -> GaitSummaryData:
         """Summary of the whole session (``window_s=None``) or of the last ``window_s`` seconds; of ``steps`` (in
-        time order) instead of the analyzer's own where given (the offline pipeline's steps after their check
-        against the tracking passes, :func:`walker_gait.core.smoothing.check_against_passes`)."""
+        time order) instead of the analyzer's own where given.  ``checked``: the steps were checked against two
+        tracking passes (:func:`walker_gait.core.smoothing.check_against_passes`), whose doubt leaves a step's length
+        out of the spatial means but not out of the gait speed (the walking steps of the cadence count there)."""
         steps = list(self._steps if steps is None else steps)
         scope = GaitSummaryData.SESSION
         if window_s is not None:
@@ -745,6 +747,7 @@ class GaitAnalyzer:
             min_confidence=self.config.summary_min_confidence,
             min_time_confidence=self.config.summary_min_time_confidence,
             max_step_time_ratio=self.config.summary_max_step_time_ratio,
+            min_speed_confidence=self.config.summary_min_time_confidence if checked else None,
         )
 
     # ------------------------------------------------------------------ buffer
@@ -1755,6 +1758,7 @@ def summarize_steps(
     min_time_confidence: float | None = None,
     max_step_time_ratio: float = math.inf,
     fit_step_rate: bool = True,
+    min_speed_confidence: float | None = None,
 ) -> GaitSummaryData:
     """Aggregate steps into a :class:`GaitSummaryData` (definitions in docs/GAIT_METRICS.md).
 
@@ -1766,9 +1770,10 @@ def summarize_steps(
     missed footfall or a hesitation inside the step).  Cadence = 60 / step time, the step time fitted to the heel
     strike times of the walking steps (:func:`fitted_step_time`; with ``fit_step_rate`` false, the mean step time:
     the walkway's definition, for ground truth); gait speed = sum of step lengths / sum of step times over the
-    same walking steps as the cadence (along an unbroken run of steps the lengths telescope to the distance between
-    its end footprints, which a doubted step left out would shorten); percentages are per-step ratios to the stride
-    time.
+    walking steps with ``confidence >= min_speed_confidence`` (default: ``min_confidence``; the offline two-pass
+    pipeline gives ``min_time_confidence``: along an unbroken run of steps the lengths telescope to the distance
+    between its end footprints, which a step doubted only for the passes' disagreement would shorten if left out);
+    percentages are per-step ratios to the stride time.
     """
     nan = math.nan
     n = len(steps)
@@ -1787,8 +1792,9 @@ def summarize_steps(
     st_all = _mean_sd_cv([s.step_time for s in walking])[0]
     st_rate = fitted_step_time(walking) if fit_step_rate else st_all
     cadence = 60.0 / st_rate if math.isfinite(st_rate) and st_rate > 0 else nan
-    lens = [s.step_length for s in walking if math.isfinite(s.step_length)]
-    times = [s.step_time for s in walking if math.isfinite(s.step_length)]
+    speed_pool = walking_steps(min_confidence if min_speed_confidence is None else min_speed_confidence)
+    lens = [s.step_length for s in speed_pool if math.isfinite(s.step_length)]
+    times = [s.step_time for s in speed_pool if math.isfinite(s.step_length)]
     speed = float(sum(lens) / sum(times)) if times and sum(times) > 0 else nan
 
     def side(sd: int, attr: str, pool: list[Step]) -> tuple[float, float, float]:
