@@ -306,7 +306,7 @@ def refine_event_times(events: Sequence[GaitEvent], steps: Sequence[Step], per_p
     the scatter and drops the outlier.  Synthetic sweeps (sets C, B, E, D, tracker seeds 0 / 1, forty-fourth session),
     against the merged track's own events: median |heel-strike error| 0.93-1.06 -> 0.86-0.95 frames, |toe-off
     error| 0.37-0.45 -> 0.31-0.41 frames, every run better in both; the double-support bias (median error, two
-    heel-strike-to-toe-off intervals) -0.65 to -1.55 -> -0.46 to -1.52 frames, seven runs of eight better.  The mean
+    heel-strike-to-toe-off intervals) -0.65 to -1.55 -> -0.46 to -1.52 frames, six runs of eight better, one equal.  The mean
     instead of the median timed heel strikes a little better (0.80-0.94) but let outliers in and lengthened the
     double-support bias.  An event without a mate in some pass keeps its time, and so does every time measured from
     it."""
