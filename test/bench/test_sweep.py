@@ -246,6 +246,12 @@ def test_reanalyse_runs_the_gait_analyzer_on_the_kept_poses(tmp_path: Path, caps
     assert sweep.main(["--reanalyse", str(tmp_path / "two"), "--out", str(tmp_path / "x"), "--merge-override",
                        '{"bogus": 1}']) == 2
     assert "bogus" in capsys.readouterr().err
+    assert sweep.main(["--reanalyse", str(tmp_path / "two"), "--out", str(tmp_path / "x"), "--confirm-override",
+                       "[0.05]"]) == 2
+    assert "--confirm-override" in capsys.readouterr().err
+    assert sweep.main(["--reanalyse", str(tmp_path / "two"), "--out", str(tmp_path / "c"), "--confirm-override",
+                       '{"factor": 1.0}']) == 0
+    assert json.loads((tmp_path / "c" / "summary.json").read_text())["config"]["confirm_override"] == {"factor": 1.0}
     # `python -m` (as make sweep runs it) writes runs another program can load
     import subprocess
     import sys

@@ -630,16 +630,25 @@ def _write(out: Path, runs: list[SessionRun], config: dict[str, Any], *, with_or
     print(table)
 
 
-def _check_kwargs(kwargs: dict[str, Any] | None, func: Callable[..., Any]) -> None:
-    """Refuse override keys that ``func`` does not take as keyword-only arguments."""
+def _kwargs_override(text: str | None, func: Callable[..., Any]) -> dict[str, Any] | None:
+    """A JSON object of keyword-only arguments of ``func`` (None: no override); ValueError naming the option."""
     import inspect
 
-    if kwargs is None:
-        return
+    if text is None:
+        return None
+    option = f"--{func.__name__.split('_')[0]}-override"
+    try:
+        kwargs = json.loads(text)
+    except json.JSONDecodeError as exc:
+        raise ValueError(f"bad {option} {text!r}: {exc}") from exc
+    if not isinstance(kwargs, dict):
+        raise ValueError(f"bad {option} {text!r}: not a JSON object")
     known = {n for n, p in inspect.signature(func).parameters.items() if p.kind is p.KEYWORD_ONLY}
     unknown = sorted(set(kwargs) - known)
     if unknown:
-        raise ValueError(f"unknown {func.__name__} argument(s) {', '.join(unknown)} (known: {', '.join(sorted(known))})")
+        raise ValueError(f"bad {option} {text!r}: unknown {func.__name__} argument(s) {', '.join(unknown)} "
+                         f"(known: {', '.join(sorted(known))})")
+    return kwargs
 
 
 def _reanalyse_main(a: argparse.Namespace) -> int:
@@ -655,20 +664,10 @@ def _reanalyse_main(a: argparse.Namespace) -> int:
         print(f"sweep: bad --gait-override {a.gait_override!r}: {exc}", file=sys.stderr)
         return 2
     try:
-        merge = None if a.merge_override is None else json.loads(a.merge_override)
-        if merge is not None and not isinstance(merge, dict):
-            raise ValueError("not a JSON object")
-        _check_kwargs(merge, merge_passes)
-    except (json.JSONDecodeError, TypeError, ValueError) as exc:
-        print(f"sweep: bad --merge-override {a.merge_override!r}: {exc}", file=sys.stderr)
-        return 2
-    try:
-        confirm = None if a.confirm_override is None else json.loads(a.confirm_override)
-        if confirm is not None and not isinstance(confirm, dict):
-            raise ValueError("not a JSON object")
-        _check_kwargs(confirm, confirm_steps)
-    except (json.JSONDecodeError, TypeError, ValueError) as exc:
-        print(f"sweep: bad --confirm-override {a.confirm_override!r}: {exc}", file=sys.stderr)
+        merge = _kwargs_override(a.merge_override, merge_passes)
+        confirm = _kwargs_override(a.confirm_override, confirm_steps)
+    except ValueError as exc:
+        print(f"sweep: {exc}", file=sys.stderr)
         return 2
     try:
         runs = reanalyse(load_runs(src), gait, merge=merge, confirm=confirm)
