@@ -43,16 +43,16 @@ import os
 import pickle
 import sys
 import time
+from collections.abc import Callable
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from walker_gait.core.types import ANKLE, HEEL, LEG_POINTS, TOE, FloorPlane, LegPose, Step, TrackStatus
 from walker_gait.core.smoothing import PassTrack
+from walker_gait.core.types import ANKLE, HEEL, LEG_POINTS, TOE, FloorPlane, LegPose, Step, TrackStatus
 
 if TYPE_CHECKING:
     from walker_gait.core.gait import GaitConfig
@@ -199,17 +199,15 @@ def run_session(scenario: str, seed: int, *, duration: float, tracker_seeds: tup
 
 
 def reanalyse(runs: list[SessionRun], gait: GaitConfig | None = None, *,
-              merge: dict[str, Any] | None = None, confirm: dict[str, Any] | None = None,
-              refine: bool = True) -> list[SessionRun]:
+              merge: dict[str, Any] | None = None, confirm: dict[str, Any] | None = None) -> list[SessionRun]:
     """The runs with their steps found again by a fresh gait analyzer (``GaitConfig`` ``gait``, default: the
     pipeline's) on their own tracked poses and floors, the input the pipeline gave its analyzer.  ``merge``
     (keyword arguments of :func:`walker_gait.core.smoothing.merge_passes`): the two-pass runs' forward and backward
     passes merged again that way first (joint errors and steps then come from the new merge).  Two-pass runs get
-    their steps confirmed by each pass's own steps and their times refined by the passes' events as the pipeline
-    does (:func:`walker_gait.core.smoothing.confirm_steps`, with the keyword arguments ``confirm``, and
-    :func:`~walker_gait.core.smoothing.refine_event_times` unless ``refine`` is false)."""
+    their steps checked against each pass's own as the pipeline does (:func:`walker_gait.core.smoothing.
+    check_against_passes`; ``confirm``: keyword arguments of its ``confirm_steps``)."""
     from walker_gait.bench.gait import match_steps, run_analyzer
-    from walker_gait.core.smoothing import confirm_steps, merge_passes, refine_event_times
+    from walker_gait.core.smoothing import check_against_passes, merge_passes
 
     out = []
     for r in runs:
@@ -225,9 +223,7 @@ def reanalyse(runs: list[SessionRun], gait: GaitConfig | None = None, *,
         det = ga.steps
         if len(r.passes) >= 2:
             alone = [run_analyzer(p.poses, r.floors, config=gait) for p in r.passes]
-            det = confirm_steps(det, [a.steps for a in alone], **(confirm or {}))
-            if refine:
-                det = refine_event_times(ga.events, det, [a.events for a in alone])[1]
+            det = check_against_passes(ga.events, det, [(a.events, a.steps) for a in alone], confirm=confirm)[1]
         pairs, _, _ = match_steps(r.gt, det)
         out.append(replace(r, det=det, pairs=pairs))
     return out

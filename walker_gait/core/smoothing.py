@@ -366,9 +366,10 @@ def refine_event_times(events: Sequence[GaitEvent], steps: Sequence[Step], per_p
 
 
 def check_against_passes(events: Sequence[GaitEvent], steps: Sequence[Step],
-                         per_pass: Sequence[tuple[Sequence[GaitEvent], Sequence[Step]]]) -> tuple[list[GaitEvent], list[Step]]:
+                         per_pass: Sequence[tuple[Sequence[GaitEvent], Sequence[Step]]], *,
+                         confirm: dict[str, float] | None = None) -> tuple[list[GaitEvent], list[Step]]:
     """The merged track's events and steps checked against each pass's own (``per_pass[k]``: the gait analyzer's
-    events and steps on pass ``k``'s poses alone): steps not confirmed doubted (:func:`confirm_steps`), events
-    and the steps' times refined (:func:`refine_event_times`)."""
-    confirmed = confirm_steps(steps, [s for _, s in per_pass])
+    events and steps on pass ``k``'s poses alone): steps not confirmed doubted (:func:`confirm_steps`, with the
+    keyword arguments ``confirm``), events and the steps' times refined (:func:`refine_event_times`)."""
+    confirmed = confirm_steps(steps, [s for _, s in per_pass], **(confirm or {}))
     return refine_event_times(events, confirmed, [e for e, _ in per_pass])
