@@ -299,7 +299,6 @@ class FrameProcessor:
         # "both": the forward pass analysed alone as it is tracked (the main process waits for the backward pass
         # anyway), for the check of the merged track's steps against each pass (check_against_passes)
         self._fwd_alone = GaitAnalyzer(options.gait) if self._two_way else None
-        self._fwd_found: tuple[list[GaitEvent], list[Step]] = ([], [])
         self.keep_frames = True  # "both": keep the frames for the backward pass (False: another process keeps them)
         self._store: FrameStore | None = None
         self._scorer: Any = None
@@ -377,9 +376,7 @@ class FrameProcessor:
                     self._store = FrameStore(memory_mb=self.options.store_memory_mb)
                 self._store.append(frame)
             assert self._fwd_alone is not None
-            ev, st = self._fwd_alone.update(pose, frame.floor)
-            self._fwd_found[0].extend(ev)
-            self._fwd_found[1].extend(st)
+            self._fwd_alone.update(pose, frame.floor)  # its events and steps are read back at the end
             t5 = time.perf_counter()
             self._fwd.append((pose, score, dict(frame.timings_ms, tracker=(t3 - t2) * 1e3, pass_scoring=(t4 - t3) * 1e3,
                                                 gait=(t5 - t4) * 1e3), frame.floor, len(frame.points)))
@@ -453,30 +450,24 @@ class FrameProcessor:
             merged = merge_passes([forward, backward])
             share, kept = merged.share(1), (forward, backward)
             floors = [f[3] for f in fwd]
-            # each pass analysed alone: the merged track's steps checked against theirs (check_against_passes)
-            pass_ms = np.zeros(n)
+            # each pass analysed alone (the forward one as it was tracked): the merged track's steps are checked
+            # against theirs (check_against_passes)
             assert self._fwd_alone is not None
-            ev, st = self._fwd_alone.finish()
-            per_pass: list[tuple[list[GaitEvent], list[Step]]] = [
-                (self._fwd_found[0] + list(ev), self._fwd_found[1] + list(st))]
+            self._fwd_alone.finish()
+            t0 = time.perf_counter()
             alone = GaitAnalyzer(self.options.gait)
-            found_ev: list[GaitEvent] = []
-            found_st: list[Step] = []
-            for i, (pose, floor) in enumerate(zip(backward.poses, floors)):
-                t0 = time.perf_counter()
-                ev, st = alone.update(pose, floor)
-                found_ev.extend(ev)
-                found_st.extend(st)
-                pass_ms[i] += (time.perf_counter() - t0) * 1e3
-            ev, st = alone.finish()
-            per_pass.append((found_ev + list(ev), found_st + list(st)))
+            for pose, floor in zip(backward.poses, floors):
+                alone.update(pose, floor)
+            alone.finish()
+            backward_gait_ms = (time.perf_counter() - t0) * 1e3 / n
+            per_pass = [(self._fwd_alone.events, self._fwd_alone.steps), (alone.events, alone.steps)]
             for i, ((_, _, fwd_ms, floor, n_fg), pose) in enumerate(zip(fwd, merged.poses)):
                 t0 = time.perf_counter()
                 events, steps = self.analyzer.update(pose, floor)
                 t1 = time.perf_counter()
                 timings = dict(fwd_ms, tracker_backward=float(backward.tracker_ms[i]),
                                pass_scoring=fwd_ms.get("pass_scoring", 0.0) + float(backward.scoring_ms[i]),
-                               gait=(t1 - t0) * 1e3 + float(pass_ms[i]) + fwd_ms.get("gait", 0.0))
+                               gait=(t1 - t0) * 1e3 + backward_gait_ms + fwd_ms.get("gait", 0.0))
                 results.append(FrameResult(pose=pose, floor=floor, events=list(events), steps=list(steps),
                                            n_foreground=n_fg, timings_ms=timings))
             last_ev, last_st = self.analyzer.finish()
