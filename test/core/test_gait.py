@@ -35,6 +35,7 @@ from walker_gait.core.gait import (
     _hinge_time,
     _rot2,
     fitted_step_time,
+    stride_in_line,
     summarize_steps,
 )
 from walker_gait.core.types import HEEL, TOE, EventKind, FloatArray, FloorPlane, LegPose, Side, Step, TrackStatus
@@ -117,15 +118,18 @@ def test_frame_quality_rule() -> None:
 def test_first_step_hovering_mid_swing_is_one_step() -> None:
     """The synthetic ``slow_elderly`` subject's first step from standing hovers 2 cm above the floor for a few
     frames mid-swing (heel nearly still relative to the other foot), then swings on.  The strike detected in the
-    hover is withdrawn when the heel moves on: one step, not two, on the exact leg points."""
+    hover is withdrawn when the heel moves on: one step, not two, on the exact leg points.  The toe off that ends
+    the hover is timed after the hovering strike (no toe off before its own foot's landing), so it falls within
+    ``min_stance_time_s`` of it, which withdraws the strike; without that withdrawal (``min_stance_time_s`` 0.01) the
+    hover is a second step."""
     from walker_gait.bench.gait import _synth_session
 
     poses, floor, gt, events, fps = _synth_session("slow_elderly", rng=np.random.default_rng(0), noise_m=0.0)
     r = evaluate_gait(gt, events, run_analyzer(poses, floor), fps=fps)
     assert r["precision"] == 1.0 and r["recall"] == 1.0, (r["precision"], r["recall"])
-    off = evaluate_gait(gt, events, run_analyzer(poses, floor, config=GaitConfig(hs_resume_distance_m=math.inf)),
-                        fps=fps)
-    assert off["det_steps"] == r["det_steps"] + 1 and off["precision"] < 1.0
+    for cfg in (GaitConfig(min_stance_time_s=0.01), GaitConfig(min_stance_time_s=0.01, hs_resume_distance_m=math.inf)):
+        off = evaluate_gait(gt, events, run_analyzer(poses, floor, config=cfg), fps=fps)
+        assert off["det_steps"] == r["det_steps"] + 1 and off["precision"] < 1.0
 
 
 @pytest.mark.parametrize("name", ["normal", "slow", "asymmetric"])
@@ -263,6 +267,41 @@ def test_tracked_backward_strides_do_not_turn_the_line_of_progression() -> None:
     assert len(pairs) >= 7, (len(pairs), len(missed), len(extra))  # measured 8 (before: 2)
     late = [i for i, _ in pairs if _tracked("a160")[2][i].stamp > 10.0]
     assert len(late) >= 5  # the walk after the stop at 8-10 s: measured 6 (before: 0)
+
+
+def test_tracked_junk_steps_of_an_arriving_user_do_not_stop_the_analysis() -> None:
+    """Session c961 (``absent_start``, set C, tracker seed 0, the tracker told the user's height; forty-fifth
+    session): the user arrives turned against the walker and the first tracked frames give junk steps of one foot.
+    A toe off between them was timed before that foot's own last strike (6.90 s after a strike at 7.10 s), which
+    escaped the withdrawal of a strike followed by a toe off within ``min_stance_time_s``; the two junk steps left a
+    6 cm sideways stride, the line of progression turned across the walker, and the state machine, looking for a
+    toe moving forward along it, saw no toe off for 3 s of good tracking: 2 of the 8 steps at the walker matched.
+    A toe off is now timed after its foot's last strike, and a stride more than 60 deg off the walker's axis stays
+    out of the line (each alone brings the steps back; the first also the order of the events)."""
+    poses, floors, gt = _tracked("c961")
+    ga = run_analyzer(poses, floors)
+    pairs, missed, extra = match_steps(gt, ga.steps)
+    assert len(pairs) >= 8 and not extra, (len(pairs), len(extra))  # measured 9, no false step (before: 2 and 3)
+    last_hs = [-math.inf, -math.inf]
+    for e in ga.events:
+        if e.kind == EventKind.HEEL_STRIKE:
+            last_hs[int(e.side)] = e.stamp
+        else:
+            assert e.stamp >= last_hs[int(e.side)], (e, last_hs)
+
+
+@pytest.mark.parametrize(("deg", "length", "counts"), [(0.0, 0.5, True), (40.0, 0.5, True), (-55.0, 0.3, True),
+                                                       (65.0, 0.5, False), (90.0, 0.06, False), (180.0, 0.5, False),
+                                                       (0.0, 0.05, False)])
+def test_a_stride_enters_the_line_of_progression_only_along_the_walker(deg: float, length: float, counts: bool) -> None:
+    """A stride more than 60 deg off the walker's forward axis (or shorter than ``min_swing_distance_m``) is a
+    tracking error, not the user's direction: users walk behind a walker, within ~45 deg of its axis even when they
+    walk in from the side."""
+    forward = np.array([-1.0, 0.0])
+    stride = length * (_rot2(math.radians(deg)) @ forward)
+    assert stride_in_line(stride, forward, min_length=GaitConfig().min_swing_distance_m) is counts
+    turned = _rot2(math.radians(30.0))  # odometry: the walker's forward turned in the world
+    assert stride_in_line(turned @ stride, turned @ forward, min_length=0.06) is counts
 
 
 def test_landing_footprint_comes_from_its_toe() -> None:

@@ -76,6 +76,7 @@ __all__ = [
     "GaitInputError",
     "GaitState",
     "fitted_step_time",
+    "stride_in_line",
     "summarize_steps",
 ]
 
@@ -84,6 +85,12 @@ _HINGE_POWERS = (1.0, 1.5, 2.0, 3.0)
 _TOE_DOWN_S = 0.15  # s: a landing foot's toe is down this soon after its heel strike (foot flat: ~0.06 s in walking)
 _MAX_DRIFT_SPEED = 2.0  # m/s: faster than a walker user walks; a planted foot's drift beyond it is a bad fit
 _FEET_AGREE_DEG = 20.0  # deg: feet pointing within this of each other give a line of progression (progression_from_feet_deg)
+_STRIDE_MAX_OFF_AXIS_DEG = 60.0
+"""deg: a stride further than this off the walker's axis (its forward direction; the odometry heading) does not enter the
+line of progression.  The user walks behind the walker, towards its front; even walking in at an angle the strides
+stay within ~45 deg of it.  A 6 cm sideways "stride" between two junk steps of a user arriving turned the line across
+the walker, and the state machine, which looks for a toe moving forward along that line, then saw no toe off for 3 s
+of good tracking (synthetic `absent_start:961`)."""
 _FLAT_HEEL_SPAN_S = 0.3  # s: the trailing foot's last flat frames averaged for its heel across the line of progression
 SWING_QUALITY_BEFORE_S = 0.6  # s before a heel strike from which `swing_min_quality` looks at the frame quality (the swing)
 
@@ -1051,6 +1058,9 @@ class GaitAnalyzer:
         lo_t = min(t_rest, t_conf) - c.event_fit_pre_s
         t_hs_b = self._feet[b].hs[-1] if self._feet[b].hs else -math.inf
         tc_lo = max(lo_t, t_hs_b) if t_hs_b < t_conf else lo_t
+        t_hs_a = self._feet[a].hs[-1] if self._feet[a].hs else -math.inf
+        if tc_lo < t_hs_a < t_conf:  # nor can it come before the foot's own last landing
+            tc_lo = t_hs_a
         idx = self._valid_range(lo_t, t_conf)
         d = self._track[k, a, _T] - self._anchor[a]
         u = d / max(float(np.hypot(*d)), 1e-9)
@@ -1592,7 +1602,7 @@ class GaitAnalyzer:
             forward = np.array([-1.0, 0.0])
             if self._odo:
                 forward = _rot2(self._walker_yaw(ps.t_hs)) @ forward
-            if np.hypot(*stride_vec) > c.min_swing_distance_m and float(stride_vec @ forward) > 0.0:
+            if stride_in_line(stride_vec, forward, min_length=c.min_swing_distance_m):
                 self._strides.append(stride_vec)
                 self._strides = self._strides[-max(c.progression_strides, 1) :]
         self._footprint[a] = fp_a_new
@@ -1705,6 +1715,14 @@ def _mean_sd_cv(values: list[float]) -> tuple[float, float, float]:
     sd = float(v.std(ddof=1)) if v.size >= 2 else math.nan
     cv = 100.0 * sd / abs(mean) if math.isfinite(sd) and abs(mean) > 1e-9 else math.nan
     return mean, sd, cv
+
+
+def stride_in_line(stride: FloatArray, forward: FloatArray, *, min_length: float) -> bool:
+    """Whether a stride (walker frame, xy) may enter the line of progression: longer than ``min_length`` and within
+    ``_STRIDE_MAX_OFF_AXIS_DEG`` of the walker's ``forward`` direction (unit).  Its user walks behind the walker,
+    towards its front; a stride pointing back or across is a tracking error (a left/right swap, a junk step)."""
+    n = float(np.hypot(*stride))
+    return n > min_length and float(stride @ forward) > n * math.cos(math.radians(_STRIDE_MAX_OFF_AXIS_DEG))
 
 
 def fitted_step_time(steps: list[Step]) -> float:
