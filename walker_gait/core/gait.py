@@ -1057,10 +1057,10 @@ class GaitAnalyzer:
         t_rest = float(self._rest_time[a])
         lo_t = min(t_rest, t_conf) - c.event_fit_pre_s
         t_hs_b = self._feet[b].hs[-1] if self._feet[b].hs else -math.inf
-        tc_lo = max(lo_t, t_hs_b) if t_hs_b < t_conf else lo_t
         t_hs_a = self._feet[a].hs[-1] if self._feet[a].hs else -math.inf
-        if tc_lo < t_hs_a < t_conf:  # nor can it come before the foot's own last landing
-            tc_lo = t_hs_a
+        # the toe off comes after the other foot's last strike (which opened the double support) and after its own
+        # foot's last landing
+        tc_lo = max([lo_t] + [t for t in (t_hs_a, t_hs_b) if t < t_conf])
         idx = self._valid_range(lo_t, t_conf)
         d = self._track[k, a, _T] - self._anchor[a]
         u = d / max(float(np.hypot(*d)), 1e-9)
@@ -1595,10 +1595,9 @@ class GaitAnalyzer:
         stride_heading = 0.0  # heel-toe offsets' difference along the line between a's two footprints (heading_offsets)
         if self._footprint[a] is not None and np.all(np.isfinite(fp_a_new)):
             stride_vec = fp_a_new - self._footprint[a]
-            # the line of progression comes from strides that go forward, away from the walker's rear: its user
-            # walks behind it, towards its front; a stride pointing back is a tracking error (a left/right
-            # swap, a junk step), and letting it turn the line around made the state machine pick the wrong
-            # swinging foot from then on
+            # the line of progression comes from strides that go forward, towards the walker's front (stride_in_line):
+            # one pointing back turned the line around and the state machine picked the wrong swinging foot from
+            # then on; one across it left the state machine waiting for a toe moving forward along it
             forward = np.array([-1.0, 0.0])
             if self._odo:
                 forward = _rot2(self._walker_yaw(ps.t_hs)) @ forward
