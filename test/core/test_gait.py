@@ -92,10 +92,12 @@ def test_input_validation() -> None:
                 {"hs_resume_distance_m": 0.0}, {"hs_resume_distance_m": math.nan},
                 {"progression_from_feet_deg": 0.0}, {"progression_from_feet_deg": 181.0},
                 {"heading_offset_min_m": -0.01}, {"heading_offset_min_m": math.nan},
-                {"progression_from_feet_deg": math.nan}):
+                {"progression_from_feet_deg": math.nan}, {"hidden_ground_gate_mps": -0.1},
+                {"hidden_ground_gate_mps": math.nan}):
         with pytest.raises(GaitInputError, match=next(iter(bad))):
             GaitConfig(**bad)
     GaitConfig(planted_fit_sigma_s=0.0, hs_height_weight=0.0, landing_toe_fit_s=0.0, landing_visibility=0.0)  # 0 = off
+    GaitConfig(hidden_ground_gate_mps=math.inf)  # off
 
 
 def test_frame_quality_rule() -> None:
@@ -464,9 +466,10 @@ def test_a_step_after_a_same_side_step_has_no_step_time() -> None:
     """Session a160 (``absent_start``): the tracker's first steps after the user walks in include the same foot
     twice in a row.  Such a step's time from the last opposite heel strike would span the missed footfall, so it
     is NaN; every step after an opposite one has its time.  (By default the first of the two is withdrawn as a
-    foot stopping mid-swing, see the next test; a stance as short as that is allowed here to keep the repeat.)"""
+    foot stopping mid-swing, see the next test; a stance as short as that is allowed here to keep the repeat, and
+    the ground is seen through the hidden feet as tracked, ``hidden_ground_gate_mps`` off, which also avoids it.)"""
     poses, floors, _ = _tracked("a160")
-    steps = run_analyzer(poses, floors, config=GaitConfig(min_stance_time_s=0.01)).steps
+    steps = run_analyzer(poses, floors, config=GaitConfig(min_stance_time_s=0.01, hidden_ground_gate_mps=math.inf)).steps
     repeat = [b for a, b in zip(steps, steps[1:]) if a.side == b.side]
     assert repeat and all(math.isnan(s.step_time) for s in repeat)
     assert all(math.isfinite(b.step_time) for a, b in zip(steps, steps[1:]) if a.side != b.side)
@@ -503,11 +506,64 @@ def test_a_strike_with_no_double_support_frame_takes_the_walkers_late_drift_for_
     assert np.mean(np.abs(err)) < 0.025  # measured 1.2 cm (2.2 before)
 
 
+def _strike_timing(poses: list[LegPose], gt: list[Step], analyzer: GaitAnalyzer) -> FloatArray:
+    """Signed error (frames) of the heel-strike event nearest to each true strike within 0.25 s."""
+    dt = float(np.median(np.diff([p.stamp for p in poses])))
+    hs = [e for e in analyzer.events if e.kind == EventKind.HEEL_STRIKE]
+    err = []
+    for g in gt:
+        near = [e.stamp for e in hs if e.side == g.side and abs(e.stamp - g.stamp) <= 0.25]
+        if near:
+            err.append((min(near, key=lambda t: abs(t - g.stamp)) - g.stamp) / dt)
+    return np.array(err)
+
+
+def test_tracked_hidden_stance_foot_does_not_carry_the_ground_away() -> None:
+    """Session b533 (``occlusion``, set B, tracker seed 0): early on, the tracker carries the hidden right foot by its
+    motion model and its planted heel moves back 13 cm in 0.37 s where the real one moved 6 cm.  The landing left
+    heel, measured against it, seemed to advance, and the first two strikes were never detected.  The ground's
+    motion under the hidden foot from the feet last seen planted (``hidden_ground_gate_mps``) finds all twelve
+    steps.  The strikes, now detected a frame or two after they happen, are timed on the fit window that ends where
+    the heel comes to rest against the feet as tracked (``_fit_end``): ending it at the detection times them early."""
+    poses, floors, gt = _tracked("b533")
+    on = run_analyzer(poses, floors)
+    pairs, missed, extra = match_steps(gt, on.steps)
+    assert len(pairs) == len(gt) == 12 and not extra, ([gt[i].stamp for i in missed], len(extra))
+    pairs_off, missed_off, _ = match_steps(gt, run_analyzer(poses, floors,
+                                                            config=GaitConfig(hidden_ground_gate_mps=math.inf)).steps)
+    assert [round(gt[i].stamp, 2) for i in missed_off] == [1.49, 2.03]
+    err = _strike_timing(poses, gt, on)
+    assert err.size == 12 and np.median(np.abs(err)) < 0.8, err  # measured 0.56 frames (median -0.24)
+
+    class AtDetection(GaitAnalyzer):
+        def _fit_end(self, p):  # type: ignore[no-untyped-def]
+            return p.t_det
+
+    early = AtDetection(GaitConfig())
+    for pose, floor in zip(poses, floors, strict=True):
+        early.update(pose, floor)
+    early.finish()
+    err_early = _strike_timing(poses, gt, early)
+    assert np.median(err_early) < -1.0 and np.median(np.abs(err_early)) > 1.2, err_early  # measured -1.40, 1.43
+
+
+def test_the_ground_through_hidden_feet_changes_nothing_while_the_feet_are_seen() -> None:
+    """With every foot in view (the kinematic simulation reports no visibility: all seen) the gate never acts and the
+    fit windows end at the detections: events and steps are the same with it off."""
+    sim = simulate_gait(SCENARIOS["asymmetric"], rng=np.random.default_rng(3))
+    on = run_analyzer(sim.poses, sim.floor)
+    off = run_analyzer(sim.poses, sim.floor, config=GaitConfig(hidden_ground_gate_mps=math.inf))
+    assert len(on.steps) >= 8
+    assert [(e.stamp, e.side, e.kind) for e in on.events] == [(e.stamp, e.side, e.kind) for e in off.events]
+    assert [s.step_length for s in on.steps] == [s.step_length for s in off.steps]
+
+
 def test_a_landing_foot_held_heel_up_takes_its_footprint_from_its_planted_toe() -> None:
     """Session c931 (``occlusion``, set C, tracker seed 1): the tracker holds several landing feet toe-down, their
     heels above the planted band for the whole window after the strike, so no frame counts as flat and the step
     fell back to the tracked landing heel (-5.9 and -6.8 cm).  The toe, down within a few frames of the strike
-    and staying down, gives the footprint instead (``landing_toe_only``)."""
+    and staying down, gives the footprint instead (``landing_toe_only``).  (With ``hidden_ground_gate_mps`` off, as
+    when this was found: with it one strike, detected 0.25 s late with or without, falls just outside the matching.)"""
     poses, floors, gt = _tracked("c931")
 
     def errors(config: GaitConfig) -> FloatArray:
@@ -516,7 +572,8 @@ def test_a_landing_foot_held_heel_up_takes_its_footprint_from_its_planted_toe() 
         assert len(pairs) >= 10 and not extra
         return np.array([det[j].step_length - gt[i].step_length for i, j in pairs])
 
-    err, off = errors(GaitConfig()), errors(GaitConfig(landing_toe_only=False))
+    err = errors(GaitConfig(hidden_ground_gate_mps=math.inf))
+    off = errors(GaitConfig(landing_toe_only=False, hidden_ground_gate_mps=math.inf))
     assert np.mean(np.abs(err)) < 0.035 < np.mean(np.abs(off)), (np.mean(np.abs(err)), np.mean(np.abs(off)))  # 2.95, 4.26
     assert np.sum(np.abs(err) > 0.05) < np.sum(np.abs(off) > 0.05)  # 2 steps off by more than 5 cm, 4 before
 
