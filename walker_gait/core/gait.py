@@ -93,6 +93,7 @@ the walker, and the state machine, which looks for a toe moving forward along th
 of good tracking (synthetic `absent_start:961`)."""
 _SEEN_VISIBILITY = 0.5  # a foot segment with a tracker visibility below this is hidden
 _GROUND_VELOCITY_TAU_S = 0.15  # s: time constant of the running ground velocity under the feet in view
+_GAP_FIT_PRE_S = 0.15  # s of a strike's fit window before a tracking gap inside it (the swing's last frames seen)
 _FLAT_HEEL_SPAN_S = 0.3  # s: the trailing foot's last flat frames averaged for its heel across the line of progression
 SWING_QUALITY_BEFORE_S = 0.6  # s before a heel strike from which `swing_min_quality` looks at the frame quality (the swing)
 
@@ -1322,6 +1323,19 @@ class GaitAnalyzer:
                 return float(self._t[k])
         return float(self._t[hi - 1]) if hi > p.k_det else p.t_det
 
+    def _gap_start(self, t_lo: float, t_hi: float) -> float | None:
+        """Stamp of the first frame of the last run of gap frames (no usable pose) that reaches into [t_lo, t_hi],
+        or None."""
+        lo = int(np.searchsorted(self._t[: self._n], t_lo - 1e-9))
+        hi = int(np.searchsorted(self._t[: self._n], t_hi + 1e-9, side="right"))
+        bad = np.nonzero(~self._valid[lo:hi])[0]
+        if bad.size == 0:
+            return None
+        j = lo + int(bad[-1])
+        while j > 0 and not self._valid[j - 1]:
+            j -= 1
+        return float(self._t[j])
+
     def _finish_hs(self, p: _PendingHS) -> None:
         c = self.config
         a, b = p.side, 1 - p.side
@@ -1329,6 +1343,14 @@ class GaitAnalyzer:
         lo_t = t_end - c.event_fit_pre_s
         if math.isfinite(p.t_to):
             lo_t = max(lo_t, p.t_to + 0.5 * (t_end - p.t_to))
+        gap_lo = self._gap_start(lo_t, t_end)
+        if gap_lo is not None:
+            # frames without a usable pose inside the window (a leg before the lens blanks the view): the strike may
+            # lie in the gap; the window reaches back to the last frames seen before it (not before the toe off), or
+            # the breakpoint could only fall after the gap (strikes timed up to 0.3 s late, steps unmatched)
+            lo_t = min(lo_t, gap_lo - _GAP_FIT_PRE_S)
+            if math.isfinite(p.t_to):
+                lo_t = max(lo_t, p.t_to)
         hi_t = p.t_det + c.event_fit_post_s
         idx = self._valid_range(lo_t, hi_t)
         tt = self._t[idx]
@@ -1621,6 +1643,9 @@ class GaitAnalyzer:
                     width_ankle_a = ankle_a.mean(axis=0)
         else:  # no frame inside the double support (very short one): nearest frame
             near = self._valid_range(ps.t_hs - 0.1, ps.t_hs + 0.1)
+            if not near.size:
+                # a strike timed inside a tracking gap: the first frame after the gap (the landed foot stands)
+                near = self._valid_range(ps.t_hs, ps.t_hs + c.double_support_max_s)[:1]
             if near.size:
                 kn = near[int(np.argmin(np.abs(self._t[near] - ps.t_hs)))]
                 toe_b = self._planted_point(np.array([kn]), b, t_from, fit_only=bool(self._weight[kn, b, _T] < 0.5),
