@@ -612,8 +612,8 @@ class GaitAnalyzer:
     their interpolated true times.
     """
 
-    _BUFFERS = ("_t", "_q", "_valid", "_raw", "_ankle", "_vis", "_rot", "_off", "_smooth", "_track", "_track_seen", "_ground",
-                "_weight")
+    _BUFFERS = ("_t", "_q", "_valid", "_raw", "_ankle", "_vis", "_rot", "_off", "_smooth", "_track", "_track_seen",
+                "_ground", "_weight")
     """Per-frame arrays (first axis = buffer index), grown and trimmed together."""
 
     def __init__(self, config: GaitConfig | None = None) -> None:
