@@ -1183,9 +1183,14 @@ class GaitAnalyzer:
 
     # ------------------------------------------------------------------ pending work
 
-    def _valid_range(self, t_lo: float, t_hi: float) -> NDArray[np.intp]:
+    def _frames(self, t_lo: float, t_hi: float) -> tuple[int, int]:
+        """Buffer index range ``[lo, hi)`` of the frames stamped in ``[t_lo, t_hi]``."""
         lo = int(np.searchsorted(self._t[: self._n], t_lo - 1e-9))
         hi = int(np.searchsorted(self._t[: self._n], t_hi + 1e-9, side="right"))
+        return lo, hi
+
+    def _valid_range(self, t_lo: float, t_hi: float) -> NDArray[np.intp]:
+        lo, hi = self._frames(t_lo, t_hi)
         return np.nonzero(self._valid[lo:hi])[0] + lo
 
     def _frame_period(self) -> float:
@@ -1197,8 +1202,7 @@ class GaitAnalyzer:
     def _slot_quality(self, t_lo: float, t_hi: float) -> float:
         """Mean frame quality over [t_lo, t_hi], counting missing frames as 0."""
         dt = self._frame_period()
-        lo = int(np.searchsorted(self._t[: self._n], t_lo - 1e-9))
-        hi = int(np.searchsorted(self._t[: self._n], t_hi + 1e-9, side="right"))
+        lo, hi = self._frames(t_lo, t_hi)
         expected = max(1.0, round((t_hi - t_lo) / dt))
         got = float(self._q[lo:hi].sum())
         return float(min(1.0, got / expected))
@@ -1326,8 +1330,7 @@ class GaitAnalyzer:
     def _gap_start(self, t_lo: float, t_hi: float) -> float | None:
         """Stamp of the first frame of the last run of gap frames (no usable pose) that reaches into [t_lo, t_hi],
         or None."""
-        lo = int(np.searchsorted(self._t[: self._n], t_lo - 1e-9))
-        hi = int(np.searchsorted(self._t[: self._n], t_hi + 1e-9, side="right"))
+        lo, hi = self._frames(t_lo, t_hi)
         bad = np.nonzero(~self._valid[lo:hi])[0]
         if bad.size == 0:
             return None
