@@ -346,3 +346,71 @@ def test_passes_must_be_known() -> None:
 
     with pytest.raises(ParameterError, match="passes"):
         PipelineOptions(passes="backward")
+
+
+def _frames_of(session: Any) -> list[Any]:
+    """A synthetic session's rendered frames as a recording yields them."""
+    from types import SimpleNamespace
+
+    from walker_gait.bench.endtoend import render
+
+    intr, info = session.intrinsics, SimpleNamespace(**session.camera_info())
+    return [SimpleNamespace(stamp=float(session.stamps[i]), data=data, encoding="16UC1", width=intr.width,
+                            height=intr.height, step=intr.width * 2, is_bigendian=False, camera_info=info)
+            for i, data in enumerate(render(session).frames)]
+
+
+def _first_frame(frames: list[Any], *, learn: bool) -> tuple[Any, int]:
+    from walker_gait.pipeline import FrameProcessor, _prepare_one
+
+    proc = FrameProcessor(_options(0))
+    learned = proc.learn_structure(frames) if learn else 0
+    prepared = _prepare_one(proc, frames[0])
+    assert isinstance(prepared, PreparedFrame)
+    return prepared, learned
+
+
+def _off_the_legs(points: np.ndarray, legs: np.ndarray) -> np.ndarray:
+    """Per point: more than 10 cm from every leg segment (hip-knee-ankle, the foot's ankle-heel-toe triangle)."""
+    d = np.full(len(points), np.inf)
+    for leg in legs:
+        for a, b in ((0, 1), (1, 2), (2, 3), (2, 4), (3, 4)):
+            ab = leg[b] - leg[a]
+            t = np.clip((points - leg[a]) @ ab / (ab @ ab), 0.0, 1.0)
+            d = np.minimum(d, np.linalg.norm(points - (leg[a] + t[:, None] * ab), axis=1))
+    return d > 0.10
+
+
+def test_structure_learned_over_the_recording_is_gone_from_its_first_frame() -> None:
+    """A user stands still for 1 s with a rear wheel of the walker inside the region of interest (camera 6 cm off
+    the walker's centre line), then walks.  Live, the wheel stays foreground until the user has walked ~2 s; offline
+    (``learn_structure``, what ``process --passes both`` does) it is gone from the first frame, the legs all there."""
+    from walker_gait.synth import SessionSpec, generate_session
+
+    session = generate_session(SessionSpec.preset("normal", duration=3.5, scale=0.5, cam_lateral=(0.06, 0.06),
+                                                  stand_start=(1.0, 1.0), clutter=False),
+                               rng=np.random.default_rng(3))
+    frames = _frames_of(session)
+    legs = np.asarray(session.leg_points[0])
+    live, none = _first_frame(frames, learn=False)
+    offline, learned = _first_frame(frames, learn=True)
+    assert none == 0 and learned > 50
+    off_live, off_offline = _off_the_legs(live.points, legs), _off_the_legs(offline.points, legs)
+    assert off_live.sum() > 1000  # the wheel
+    assert off_offline.sum() < 0.1 * off_live.sum()
+    assert (~off_offline).sum() == (~off_live).sum()  # every leg point kept
+
+
+def test_learning_no_structure_changes_nothing() -> None:
+    """Without walker parts in view nothing is learned, and the frames come out exactly as without the pass (its
+    scratch processor draws from its own random streams)."""
+    from walker_gait.synth import SessionSpec, generate_session
+
+    session = generate_session(SessionSpec.preset("normal", duration=1.5, scale=0.5, walker_parts=False,
+                                                  clutter=False), rng=np.random.default_rng(4))
+    frames = _frames_of(session)
+    live, _ = _first_frame(frames, learn=False)
+    offline, learned = _first_frame(frames, learn=True)
+    assert learned == 0
+    np.testing.assert_array_equal(offline.points, live.points)
+    np.testing.assert_array_equal(offline.depth_fg, live.depth_fg)

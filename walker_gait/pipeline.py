@@ -343,6 +343,33 @@ class FrameProcessor:
                              timings_ms={"depth": (t1 - t0) * 1e3, "segmentation": (t2 - t1) * 1e3},
                              no_depth=seg.no_depth)
 
+    def learn_structure(self, frames: Iterable[Any], *, progress: Any = None) -> int:
+        """Offline, before the first frame: learn the walker's own structure over the whole recording.
+
+        The segmentation removes structure that keeps its place in the image while the user moves
+        (:class:`~walker_gait.core.segmentation.StaticStructureMask`), but live it can only learn it from the frames
+        seen so far: about 2 s of walking.  A user who stands still at the start with a wheel or post of the walker
+        inside the region of interest leaves it in the foreground until then, and a model leg can take it.
+        Offline the whole recording is there: ``frames`` (as a recording yields them: ``stamp``, ``data``,
+        ``encoding``, ``width``, ``height``, ``step``, ``is_bigendian``, ``camera_info``) are decoded and segmented
+        once by a scratch processor (its own copies of every stage, so this processor's state and random streams
+        stay as they were), and this processor's segmentation starts from the structure learned by the end.
+        ``progress`` wraps the iteration (e.g. a tqdm bar).  Returns the number of learned cells (0: none, nothing
+        changes).  Frames that fail to decode are passed over here; tracking reports them.
+        """
+        static = self.segmenter.static
+        if static is None:
+            return 0
+        scratch = FrameProcessor(self.options)
+        for frame in progress(frames) if progress is not None else frames:
+            _prepare_one(scratch, frame)
+        assert scratch.segmenter.static is not None
+        structure = scratch.segmenter.static.structure()
+        if structure is None:
+            return 0
+        static.seed(structure, scratch.segmenter.static.image_shape)
+        return int(np.count_nonzero(np.isfinite(structure)))
+
     def track(self, frame: PreparedFrame) -> FrameResult | None:
         """Tracker and gait analyzer on a prepared frame (a new calibration restarts the tracker); with
         ``passes="both"`` the forward tracking pass only, and None (the results come from :meth:`finish`).
@@ -843,6 +870,11 @@ def process_recording(path: Path, out_dir: Path, *, options: PipelineOptions | N
             tracked.append((stamp_ns, frame_id, res))
 
     two_way = options.passes == "both"
+    if two_way:  # offline with the whole recording: the walker's own structure learned over all of it first
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # the tracking pass reads the same frames and reports their problems
+            proc.learn_structure(recording.iter_frames(), progress=lambda it: _progress(
+                it, total=recording.frame_count, enabled=progress, desc=f"{path.name} (walker structure)"))
     with _Front(recording, proc, prefetch=options.prefetch, two_way=two_way) as front:
         for frame, prepared in _progress(front.frames(), total=recording.frame_count, enabled=progress,
                                          desc=f"{path.name} (forward)" if two_way else path.name):

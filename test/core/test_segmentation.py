@@ -772,6 +772,40 @@ def test_segmenter_learns_the_walkers_structure_before_its_user_arrives() -> Non
         assert q["leg_kept"] >= 0.98
 
 
+def test_static_mask_seeded_with_learned_structure_removes_it_from_the_first_frame() -> None:
+    """Offline the structure is learned over the whole recording first (``FrameProcessor.learn_structure``): a mask
+    seeded with it removes the wheel from the first frame of a user standing still, where a fresh mask keeps it
+    until the user has walked ``frames`` moving frames; the legs stay foreground, also in front of the wheel, and
+    the seeded start still counts as the view's first frame (no motion)."""
+    cfg = StaticMaskConfig(frames=20, grid_stride=2)
+    wheel = np.zeros((60, 80), bool)
+    wheel[30:50, 4:16] = True
+    learner = StaticStructureMask(cfg)
+    assert learner.structure() is None
+    learner.update(*_blocks(0))  # the first frame (everything new) is no motion
+    _walking(learner, cfg.frames + 2)
+    structure = learner.structure()
+    assert structure is not None and np.isfinite(structure).sum() == 10 * 6  # the wheel's cells only
+
+    fresh, seeded = StaticStructureMask(cfg), StaticStructureMask(cfg)
+    seeded.seed(structure, learner.image_shape)
+    for i in range(30):  # the user stands still
+        z, cand = _blocks(0)
+        assert not fresh.update(z, cand) and not seeded.update(z, cand)
+        got = seeded.static_pixels(z, cand)
+        assert got[wheel].all() and not (got & ~wheel).any(), i
+        assert not fresh.static_pixels(z, cand).any()
+    assert seeded.moving_frames == 0
+    # a leg in front of the seeded wheel stays foreground
+    z, cand = _blocks(0)
+    z[30:50, 8:12] = 0.5
+    seeded.update(z, cand)
+    got = seeded.static_pixels(z, cand)
+    assert not got[30:50, 8:12].any() and got[30:50, 4:8].all()
+    with pytest.raises(ValueError, match="does not fit"):
+        StaticStructureMask(cfg).seed(structure, (60, 90))
+
+
 def test_static_mask_config_rejects_bad_still_learning() -> None:
     for bad in ({"still_weight": -0.1}, {"still_weight": math.inf}, {"still_share": 1.0}, {"still_share": -0.1}):
         with pytest.raises(ValueError, match="still_"):

@@ -225,6 +225,11 @@ def run_pipeline(session: Any, rendered: Rendered, *, preset: str = "default", c
     proc.set_camera_info(SimpleNamespace(**session.camera_info()))
     n = len(rendered.frames) if max_frames is None else min(len(rendered.frames), max_frames)
     intr = session.intrinsics
+    if passes == "both":  # as process_recording: the walker's structure learned over the recording first
+        info = SimpleNamespace(**session.camera_info())
+        proc.learn_structure(SimpleNamespace(stamp=float(session.stamps[i]), data=rendered.frames[i], encoding="16UC1",
+                                             width=intr.width, height=intr.height, step=intr.width * 2,
+                                             is_bigendian=False, camera_info=info) for i in range(n))
     run = PipelineRun(tracker_cue=tracker.cue, poses=[], steps=[], timing_ms={k: 0.0 for k in STAGES}, tracker_ms=[])
     results = []
     for i in range(n):

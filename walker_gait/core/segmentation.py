@@ -1118,8 +1118,36 @@ class StaticStructureMask:
         self._ref: F32 = np.empty((0, 0), dtype=np.float32)
         self._count: NDArray[np.float32] = np.empty((0, 0), dtype=np.float32)
         self._shape: tuple[int, int] = (0, 0)
+        self._seeded = False  # the next frame starts a view whose structure was given (:meth:`seed`)
         self.moving_frames = 0
         """Moving frames seen so far."""
+
+    def structure(self) -> F32 | None:
+        """The learned structure: ``(h, w)`` reference depths (m) of the learned cells, NaN elsewhere (sub-sampled
+        grid); None before any frame or with nothing learned."""
+        learned = self.learned
+        if not learned.any():
+            return None
+        return np.where(learned, self._ref, np.float32(np.nan)).astype(np.float32)
+
+    def seed(self, structure: F32, shape: tuple[int, int]) -> None:
+        """Start from ``structure`` (:meth:`structure` of a mask that has seen the same camera's ``(H, W)`` images,
+        e.g. a pass over the whole recording): its cells count as learned from the first frame on, everything
+        else is learned as usual.  The first frame then still counts as the view's first (no motion in it)."""
+        s = self.config.grid_stride
+        grid = ((shape[0] + s - 1) // s, (shape[1] + s - 1) // s)
+        if structure.shape != grid:
+            raise ValueError(f"structure grid {structure.shape} does not fit {shape} images at stride {s} ({grid})")
+        self._shape = (int(shape[0]), int(shape[1]))
+        self._ref = structure.astype(np.float32, copy=True)
+        self._count = np.where(np.isfinite(self._ref), self.config.frames, 0).astype(np.float32)
+        self.moving_frames = 0
+        self._seeded = True
+
+    @property
+    def image_shape(self) -> tuple[int, int]:
+        """``(H, W)`` of the images the model has learned from ((0, 0) before any)."""
+        return self._shape
 
     @property
     def learned(self) -> BoolArray:
@@ -1138,8 +1166,10 @@ class StaticStructureMask:
         s = self.config.grid_stride
         z = depth_m[::s, ::s]
         cand = candidates[::s, ::s]
-        first = self._shape != depth_m.shape
-        if first:  # (re)start: everything in view is new, which is no motion
+        reset = self._shape != depth_m.shape
+        first = reset or self._seeded  # a view's first frame: everything in it is new, which is no motion
+        self._seeded = False
+        if reset:
             self._shape = (int(depth_m.shape[0]), int(depth_m.shape[1]))
             self._ref = np.full(z.shape, np.nan, dtype=np.float32)
             self._count = np.zeros(z.shape, dtype=np.float32)
