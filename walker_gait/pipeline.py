@@ -31,6 +31,15 @@ from walker_gait.core.types import CameraIntrinsics, FloorPlane, GaitEvent, LegP
 OFFLINE_NODES = ("depth_to_cloud", "floor_segmentation", "leg_tracker", "gait_analyzer")
 
 
+STRUCTURE_MOVING_FRAMES = 2
+""":meth:`FrameProcessor.learn_structure` reads the recording until its scratch mask has seen this many times
+``static_mask.frames`` moving frames (twice what learns a part in full view: a leg passing in front of it restarts
+its count)."""
+STRUCTURE_STRIDE = 2
+""":meth:`FrameProcessor.learn_structure` decodes and segments every this-many-th frame, its mask learning in
+``static_mask.frames / STRUCTURE_STRIDE`` moving frames (half the time of a pass over every frame)."""
+
+
 @dataclasses.dataclass(kw_only=True)
 class PipelineOptions:
     """Everything that configures an offline run (built from the same YAML as the live nodes)."""
@@ -352,22 +361,35 @@ class FrameProcessor:
         inside the region of interest leaves it in the foreground until then, and a model leg can take it.
         Offline the whole recording is there: ``frames`` (as a recording yields them: ``stamp``, ``data``,
         ``encoding``, ``width``, ``height``, ``step``, ``is_bigendian``, ``camera_info``) are decoded and segmented
-        once by a scratch processor (its own copies of every stage, so this processor's state and random streams
-        stay as they were), and this processor's segmentation starts from the structure learned by the end.
-        ``progress`` wraps the iteration (e.g. a tqdm bar).  Returns the number of learned cells (0: none, nothing
-        changes).  Frames that fail to decode are passed over here; tracking reports them.
+        by a scratch processor (its own copies of every stage, so this processor's state and random streams stay as
+        they were; every :data:`STRUCTURE_STRIDE`-th frame, its mask learning from as many fewer frames), and this
+        processor's segmentation starts from the structure learned by the end, or once the scratch mask has seen
+        :data:`STRUCTURE_MOVING_FRAMES` times its ``static_mask.frames`` moving frames: whatever kept its place since
+        the start is learned by then, and what appears later is learned as the frames come, as always (a
+        300-frame session of a user walking from the start: ~75 frames decoded and segmented a second time).  ``progress`` wraps the
+        iteration (e.g. a tqdm bar).  Returns the number of learned cells (0: none, nothing changes).  Frames that
+        fail to decode are passed over here; tracking reports them.
         """
         static = self.segmenter.static
         if static is None:
             return 0
-        scratch = FrameProcessor(self.options)
-        for frame in progress(frames) if progress is not None else frames:
+        # every STRUCTURE_STRIDE-th frame, each counting as many: the same span of walking teaches the mask
+        seg = self.options.segmenter
+        mask = dataclasses.replace(seg.static_mask, frames=max(1, math.ceil(seg.static_mask.frames / STRUCTURE_STRIDE)))
+        scratch = FrameProcessor(dataclasses.replace(self.options, segmenter=dataclasses.replace(seg, static_mask=mask)))
+        learner = scratch.segmenter.static
+        assert learner is not None
+        enough = STRUCTURE_MOVING_FRAMES * mask.frames
+        for i, frame in enumerate(progress(frames) if progress is not None else frames):
+            if i % STRUCTURE_STRIDE:
+                continue
             _prepare_one(scratch, frame)
-        assert scratch.segmenter.static is not None
-        structure = scratch.segmenter.static.structure()
+            if learner.moving_frames >= enough:
+                break
+        structure = learner.structure()
         if structure is None:
             return 0
-        static.seed(structure, scratch.segmenter.static.image_shape)
+        static.seed(structure, learner.image_shape)
         return int(np.count_nonzero(np.isfinite(structure)))
 
     def track(self, frame: PreparedFrame) -> FrameResult | None:
