@@ -353,22 +353,22 @@ class FrameProcessor:
                              no_depth=seg.no_depth)
 
     def learn_structure(self, frames: Iterable[Any], *, progress: Any = None) -> int:
-        """Offline, before the first frame: learn the walker's own structure over the whole recording.
+        """Offline, before the first frame: learn the walker's own structure from the recording.
 
         The segmentation removes structure that keeps its place in the image while the user moves
         (:class:`~walker_gait.core.segmentation.StaticStructureMask`), but live it can only learn it from the frames
         seen so far: about 2 s of walking.  A user who stands still at the start with a wheel or post of the walker
         inside the region of interest leaves it in the foreground until then, and a model leg can take it.
-        Offline the whole recording is there: ``frames`` (as a recording yields them: ``stamp``, ``data``,
-        ``encoding``, ``width``, ``height``, ``step``, ``is_bigendian``, ``camera_info``) are decoded and segmented
-        by a scratch processor (its own copies of every stage, so this processor's state and random streams stay as
-        they were; every :data:`STRUCTURE_STRIDE`-th frame, its mask learning from as many fewer frames), and this
-        processor's segmentation starts from the structure learned by the end, or once the scratch mask has seen
+        Offline the recording is there: ``frames`` (as a recording yields them: ``stamp``, ``data``, ``encoding``,
+        ``width``, ``height``, ``step``, ``is_bigendian``, ``camera_info``) are decoded and segmented by a scratch
+        processor (its own copies of every stage, so this processor's state and random streams stay as they were;
+        every :data:`STRUCTURE_STRIDE`-th frame, its mask learning from as many fewer frames), and this processor's
+        segmentation starts from the structure learned by the end, or once the scratch mask has seen
         :data:`STRUCTURE_MOVING_FRAMES` times its ``static_mask.frames`` moving frames: whatever kept its place since
-        the start is learned by then, and what appears later is learned as the frames come, as always (a
-        300-frame session of a user walking from the start: ~75 frames decoded and segmented a second time).  ``progress`` wraps the
-        iteration (e.g. a tqdm bar).  Returns the number of learned cells (0: none, nothing changes).  Frames that
-        fail to decode are passed over here; tracking reports them.
+        the start is learned by then, and what appears later is learned as the frames come, as always (a 300-frame
+        session of a user walking from the start: ~75 frames decoded and segmented a second time).  ``progress``
+        wraps the iteration (e.g. a tqdm bar).  Returns the number of learned cells (0: none, nothing changes).
+        Frames that fail to decode are passed over here; tracking reports them.
         """
         static = self.segmenter.static
         if static is None:
@@ -376,7 +376,8 @@ class FrameProcessor:
         # every STRUCTURE_STRIDE-th frame, each counting as many: the same span of walking teaches the mask
         seg = self.options.segmenter
         mask = dataclasses.replace(seg.static_mask, frames=max(1, math.ceil(seg.static_mask.frames / STRUCTURE_STRIDE)))
-        scratch = FrameProcessor(dataclasses.replace(self.options, segmenter=dataclasses.replace(seg, static_mask=mask)))
+        scratch = FrameProcessor(dataclasses.replace(self.options,
+                                                     segmenter=dataclasses.replace(seg, static_mask=mask)))
         learner = scratch.segmenter.static
         assert learner is not None
         enough = STRUCTURE_MOVING_FRAMES * mask.frames
@@ -892,7 +893,7 @@ def process_recording(path: Path, out_dir: Path, *, options: PipelineOptions | N
             tracked.append((stamp_ns, frame_id, res))
 
     two_way = options.passes == "both"
-    if two_way:  # offline with the whole recording: the walker's own structure learned over all of it first
+    if two_way:  # offline, the recording at hand: the walker's own structure learned from it first
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")  # the tracking pass reads the same frames and reports their problems
             proc.learn_structure(recording.iter_frames(), progress=lambda it: _progress(

@@ -222,11 +222,11 @@ def run_pipeline(session: Any, rendered: Rendered, *, preset: str = "default", c
         tracker = dataclasses.replace(tracker, **changes)
     proc = FrameProcessor(PipelineOptions(preset=preset, tracker=tracker, seed=seed, write_mcap=False,
                                           write_report=False, passes=passes))
-    proc.set_camera_info(SimpleNamespace(**session.camera_info()))
+    info = SimpleNamespace(**session.camera_info())
+    proc.set_camera_info(info)
     n = len(rendered.frames) if max_frames is None else min(len(rendered.frames), max_frames)
     intr = session.intrinsics
-    if passes == "both":  # as process_recording: the walker's structure learned over the recording first
-        info = SimpleNamespace(**session.camera_info())
+    if passes == "both":  # as process_recording: the walker's structure learned from the recording first
         proc.learn_structure(SimpleNamespace(stamp=float(session.stamps[i]), data=rendered.frames[i], encoding="16UC1",
                                              width=intr.width, height=intr.height, step=intr.width * 2,
                                              is_bigendian=False, camera_info=info) for i in range(n))
