@@ -350,14 +350,9 @@ def test_passes_must_be_known() -> None:
 
 def _frames_of(session: Any) -> list[Any]:
     """A synthetic session's rendered frames as a recording yields them."""
-    from types import SimpleNamespace
+    from walker_gait.bench.endtoend import recording_frames, render
 
-    from walker_gait.bench.endtoend import render
-
-    intr, info = session.intrinsics, SimpleNamespace(**session.camera_info())
-    return [SimpleNamespace(stamp=float(session.stamps[i]), data=data, encoding="16UC1", width=intr.width,
-                            height=intr.height, step=intr.width * 2, is_bigendian=False, camera_info=info)
-            for i, data in enumerate(render(session).frames)]
+    return recording_frames(session, render(session).frames)
 
 
 def _first_frame(frames: list[Any], *, learn: bool) -> tuple[Any, int]:

@@ -11,6 +11,7 @@ from __future__ import annotations
 import math
 import time
 import warnings
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from types import SimpleNamespace
 from typing import TYPE_CHECKING, Any
@@ -203,6 +204,15 @@ class PipelineRun:
     passes: tuple[Any, ...] = ()  # two passes: the forward and backward PassTrack that were merged into ``poses``
 
 
+def recording_frames(session: Any, frames: Sequence[np.ndarray]) -> list[SimpleNamespace]:
+    """A session's rendered depth images (16UC1) as a recording yields its frames, each with the session's
+    CameraInfo (what ``FrameProcessor.learn_structure`` reads)."""
+    intr, info = session.intrinsics, SimpleNamespace(**session.camera_info())
+    return [SimpleNamespace(stamp=float(session.stamps[i]), data=data, encoding="16UC1", width=intr.width,
+                            height=intr.height, step=intr.width * 2, is_bigendian=False, camera_info=info)
+            for i, data in enumerate(frames)]
+
+
 def run_pipeline(session: Any, rendered: Rendered, *, preset: str = "default", cue: str | None = None, seed: int = 0,
                  max_frames: int | None = None, overrides: dict[str, Any] | None = None,
                  passes: str = "both") -> PipelineRun:
@@ -222,14 +232,11 @@ def run_pipeline(session: Any, rendered: Rendered, *, preset: str = "default", c
         tracker = dataclasses.replace(tracker, **changes)
     proc = FrameProcessor(PipelineOptions(preset=preset, tracker=tracker, seed=seed, write_mcap=False,
                                           write_report=False, passes=passes))
-    info = SimpleNamespace(**session.camera_info())
-    proc.set_camera_info(info)
+    proc.set_camera_info(SimpleNamespace(**session.camera_info()))
     n = len(rendered.frames) if max_frames is None else min(len(rendered.frames), max_frames)
     intr = session.intrinsics
     if passes == "both":  # as process_recording: the walker's structure learned from the recording first
-        proc.learn_structure(SimpleNamespace(stamp=float(session.stamps[i]), data=rendered.frames[i], encoding="16UC1",
-                                             width=intr.width, height=intr.height, step=intr.width * 2,
-                                             is_bigendian=False, camera_info=info) for i in range(n))
+        proc.learn_structure(recording_frames(session, rendered.frames[:n]))
     run = PipelineRun(tracker_cue=tracker.cue, poses=[], steps=[], timing_ms={k: 0.0 for k in STAGES}, tracker_ms=[])
     results = []
     for i in range(n):
