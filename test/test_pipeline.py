@@ -260,6 +260,52 @@ def test_frame_store_reads_frames_back_bit_for_bit(short_session: Path, tmp_path
     view.close()
 
 
+def test_an_arriving_user_is_not_reported_before_the_backward_pass_has_seen_both_feet(tmp_path: Path) -> None:
+    """A user walking in from the side: the forward pass starts once it sees two legs, the backward pass ends its
+    track there and, alone, carried a leg it no longer saw (both model legs on the foot in view, 20-70 cm off).
+    Those frames get no pose; the frames it alone tracked after seeing both feet stay."""
+    from types import SimpleNamespace
+
+    from walker_gait.core.smoothing import wait_for_both_feet
+    from walker_gait.io.bags import open_recording
+    from walker_gait.pipeline import FrameProcessor
+    from walker_gait.synth import SessionSpec, generate_session, write_session
+
+    session = generate_session(SessionSpec.preset("absent_start", duration=6.0, scale=0.5, absent_start=(0.2, 0.2)),
+                               rng=np.random.default_rng(1))
+    path = tmp_path / "arrival.mcap"
+    write_session(session, path, fmt="mcap", encoding="16UC1")
+    proc, prep = FrameProcessor(_options(0, passes="both")), FrameProcessor(_options(0, passes="both"))
+    frames = []
+    for fr in open_recording(path).iter_frames():
+        info = SimpleNamespace(**{k: getattr(fr.camera_info, k) for k in
+                                  ("width", "height", "k", "d", "p", "distortion_model")})
+        proc.set_camera_info(info)
+        prep.set_camera_info(info)
+        kw = dict(stamp=fr.stamp, data=fr.data, encoding=fr.encoding, width=fr.width, height=fr.height, step=fr.step,
+                  is_bigendian=fr.is_bigendian)
+        proc.process(**kw)
+        frames.append(prep.prepare(**kw))
+    raw = prep.backward(frames)
+    fin = proc.finish()
+    fwd, kept = fin.passes
+    np.testing.assert_array_equal([p.points for p in kept.poses],
+                                  [p.points for p in wait_for_both_feet(raw, other=fwd).poses])
+
+    def has(poses: list) -> np.ndarray:  # type: ignore[type-arg]
+        return np.array([bool(np.all(np.isfinite(p.points))) for p in poses])
+
+    truth = np.asarray(session.leg_points[:len(frames)], dtype=float)
+    raw_feet = np.stack([p.points for p in raw.poses])[:, :, 2:]
+    feet_err = np.linalg.norm(raw_feet - truth[:, :, 2:], axis=-1).mean(axis=(1, 2))
+    dropped = has(raw.poses) & ~has(kept.poses)
+    assert dropped.sum() >= 10 and not has(fwd.poses)[dropped].any()
+    assert not has([r.pose for r in fin.results])[dropped].any()
+    assert float(np.mean(feet_err[dropped])) > 0.20
+    alone = has(kept.poses) & ~has(fwd.poses)  # what the backward pass alone still reports: after seeing both feet
+    assert alone.sum() >= 5 and float(np.mean(feet_err[alone])) < 0.10
+
+
 def test_two_passes_merge_the_forward_pass_with_a_backward_one(short_session: Path, tmp_path: Path) -> None:
     """``passes="both"``: every frame gets a pose between the forward pass's (which is the one-pass pipeline's, same
     seed) and the backward pass's (blended where their feet agree), nearer the one chosen, in the share reported;
@@ -267,6 +313,7 @@ def test_two_passes_merge_the_forward_pass_with_a_backward_one(short_session: Pa
     import json
     from types import SimpleNamespace
 
+    from walker_gait.core.smoothing import wait_for_both_feet
     from walker_gait.io.bags import open_recording
     from walker_gait.pipeline import FrameProcessor
 
@@ -294,12 +341,13 @@ def test_two_passes_merge_the_forward_pass_with_a_backward_one(short_session: Pa
                             step=fr.step, is_bigendian=fr.is_bigendian) is None
         frames.append(prep.prepare(stamp=fr.stamp, data=fr.data, encoding=fr.encoding, width=fr.width,
                                    height=fr.height, step=fr.step, is_bigendian=fr.is_bigendian))
-    backward = prep.backward(frames)
     fin = proc.finish()
     assert len(fin.results) == 75
-    # the merged passes are kept: the forward one is the one-pass pipeline's, the backward one ours
+    # the merged passes are kept: the forward one is the one-pass pipeline's, the backward one ours without the
+    # frames, where the forward pass has no pose, before it had seen both feet
     assert len(fin.passes) == 2 and all(len(p.poses) == 75 for p in fin.passes)
     np.testing.assert_array_equal([p.points for p in fin.passes[0].poses], [p.points for p in one.poses])
+    backward = wait_for_both_feet(prep.backward(frames), other=fin.passes[0])
     np.testing.assert_array_equal([p.points for p in fin.passes[1].poses], [p.points for p in backward.poses])
     np.testing.assert_array_equal([r.pose.points for r in fin.results], [p.points for p in two.poses])
     nearer_backward, at_half = 0, 0

@@ -473,14 +473,15 @@ class FrameProcessor:
     def finish(self, *, backward: PassTrack | None = None, progress: Any = None) -> Finished:
         """End of the recording.  ``passes="both"``: the backward pass (``backward``, when another process ran it
         over the same frames, else over the frames kept here; ``progress`` wraps its loop's frame indices, e.g. a
-        tqdm bar), the passes merged (:func:`walker_gait.core.smoothing.merge_passes`), the gait analyzer over the
-        merged poses.  Then the gait analyzer's last events and steps."""
+        tqdm bar), without the poses it alone gave before it had seen both feet
+        (:func:`walker_gait.core.smoothing.wait_for_both_feet`), the passes merged
+        (:func:`walker_gait.core.smoothing.merge_passes`), the gait analyzer over the merged poses.  Then the gait analyzer's last events and steps."""
         results: list[FrameResult] = []
         share = math.nan
         kept: tuple[PassTrack, ...] = ()
         if self._two_way and self._fwd:
             from walker_gait.core.gait import GaitAnalyzer
-            from walker_gait.core.smoothing import check_against_passes, merge_passes
+            from walker_gait.core.smoothing import check_against_passes, merge_passes, wait_for_both_feet
 
             fwd, self._fwd = self._fwd, []
             store, self._store = self._store, None
@@ -497,6 +498,9 @@ class FrameProcessor:
                 raise RuntimeError(f"the backward pass covers {len(backward.poses)} frames, the forward pass {n}")
             forward = PassTrack(poses=[f[0] for f in fwd], scores=np.array([f[1] for f in fwd], dtype=np.float64),
                                 tracker_ms=np.zeros(n), scoring_ms=np.zeros(n))
+            # a track starts where both feet have been seen, whichever way it was tracked (the forward tracker waits
+            # for two legs; backwards, an arriving user's first frames end the track)
+            backward = wait_for_both_feet(backward, other=forward)
             merged = merge_passes([forward, backward])
             share, kept = merged.share(1), (forward, backward)
             floors = [f[3] for f in fwd]

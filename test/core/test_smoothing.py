@@ -23,6 +23,7 @@ from walker_gait.core.smoothing import (
     refine_event_times,
     score_passes,
     track_pass,
+    wait_for_both_feet,
 )
 from walker_gait.core.tracker import LegTracker, preset
 from walker_gait.core.types import CameraIntrinsics, EventKind, FloorPlane, GaitEvent, LegPose, Side, Step, TrackStatus
@@ -153,6 +154,40 @@ def test_poses_whose_feet_agree_are_averaged_and_others_kept_apart() -> None:
     # a pass without a pose, or a chosen pose without feet, leaves the chosen pose as it is
     empty = LegPose(stamp=1.0, points=np.full((2, 5, 3), np.nan))
     assert blend_poses([a, empty], 0) is a and blend_poses([empty, a], 0) is empty
+
+
+def _seen(stamp: float, left: float, right: float) -> LegPose:
+    """A pose whose left and right feet are ``left`` / ``right`` visible."""
+    vis = np.ones((2, 3))
+    vis[:, 2] = (left, right)
+    return LegPose(stamp=stamp, points=np.zeros((2, 5, 3)), visibility=vis, status=TrackStatus.TRACKING,
+                   confidence=0.9)
+
+
+def test_a_track_starts_where_both_feet_have_been_seen() -> None:
+    empty = LegPose(stamp=0.0, points=np.full((2, 5, 3), np.nan), status=TrackStatus.NO_USER, confidence=0.0)
+    feet = [None, (0.0, 0.9), (0.3, 0.9), (0.6, 0.2), (0.1, 0.1), None, (0.9, 0.0), (0.0, 0.7), (0.0, 0.0)]
+    poses = [replace(empty, stamp=0.1 * i) if f is None else _seen(0.1 * i, *f) for i, f in enumerate(feet)]
+    track = _track(poses, np.array([-np.inf if f is None else 1.0 for f in feet]))
+    out = wait_for_both_feet(track, min_visibility=0.5)
+    have = [bool(np.all(np.isfinite(p.points))) for p in out.poses]
+    # the first track's left foot is first seen on frame 3 (its right one on frame 1): frames 1-2 dropped, and a
+    # foot hidden again later (frame 4) keeps the track; the second track starts afresh and sees both by frame 7
+    assert have == [False, False, False, True, True, False, False, True, True]
+    assert out.poses[3] is poses[3] and out.poses[1].status == TrackStatus.NO_USER
+    assert [p.stamp for p in out.poses] == [p.stamp for p in poses]
+    assert list(np.isfinite(out.scores)) == have and out.tracker_ms is track.tracker_ms
+    # where the other pass has a pose the merge keeps both to choose from
+    other = _track([replace(empty, stamp=0.1 * i) if i != 2 else _pose(0.2, 0.0) for i in range(9)], np.zeros(9))
+    assert [bool(np.all(np.isfinite(p.points))) for p in wait_for_both_feet(track, other=other).poses][:4] == \
+        [False, False, True, True]
+    # a track that sees both feet at once, or poses without a visibility estimate, lose nothing
+    assert wait_for_both_feet(_track([_seen(0.0, 1.0, 1.0), _seen(0.1, 0.0, 0.0)], np.zeros(2))).poses[1].confidence \
+        == 0.9
+    plain = _track([_pose(0.1 * i, 0.0) for i in range(3)], np.zeros(3))
+    assert wait_for_both_feet(plain) is plain
+    with pytest.raises(ValueError, match="frames"):
+        wait_for_both_feet(track, other=plain)
 
 
 def _step(stamp: float, side: Side, length: float, confidence: float = 1.0) -> Step:
