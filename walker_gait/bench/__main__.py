@@ -115,6 +115,8 @@ def section_endtoend(scenarios: tuple[str, ...], duration: float, seed: int) -> 
              "both ankles in the walker's region of interest, as for recall; after it, from the first frame with both "
              "legs anywhere in the image) until the mean error of the ten points stays under 10 cm for 5 frames; "
              "n/a where the user is in view throughout.",
+             "Cadence error: the session summary's cadence (what `summary.json` reports: the walkway's 60 / mean step "
+             "time over the steps the summary pools) against the same figure of all true steps, signed %.",
              "",
              "| scenario | cue | step length err cm | step width err cm | steps det/true (matched) | precision | "
              "recall (in view) | HS timing (median, frames) | cadence err % | hip | knee | ankle | heel | toe | frames > 10 cm % | "

@@ -28,7 +28,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from walker_gait.core.gait import GaitAnalyzer, GaitConfig, summarize_steps
+from walker_gait.core.gait import GaitAnalyzer, GaitConfig, GaitSummaryData, summarize_steps
 from walker_gait.core.types import (
     ANKLE,
     HEEL,
@@ -373,6 +373,22 @@ def run_analyzer(poses: list[LegPose], floor: FloorPlane | list[FloorPlane], *, 
         ga.update(p, floor[i] if isinstance(floor, list) else floor)
     ga.finish()
     return ga
+
+
+def session_summaries(gt: list[Step], det: list[Step], *, checked: bool, config: GaitConfig | None = None
+                      ) -> tuple[GaitSummaryData, GaitSummaryData]:
+    """The session summary a clinician reads of the detected steps ``det`` (``summarize_steps`` with the analyzer's
+    confidence cuts, as ``GaitAnalyzer.summary`` gives them; ``checked``: steps checked against two tracking passes,
+    as the offline pipeline's) and the same summary of the true steps ``gt``, whose cadence is the walkway's
+    definition (60 / their mean step time): ``(true, detected)``."""
+    cfg = config or GaitConfig()
+    true = summarize_steps(gt, max_step_time_s=cfg.max_step_time_s, max_step_time_ratio=cfg.summary_max_step_time_ratio,
+                           fit_step_rate=False)
+    found = summarize_steps(det, max_step_time_s=cfg.max_step_time_s, min_confidence=cfg.summary_min_confidence,
+                            max_step_time_ratio=cfg.summary_max_step_time_ratio,
+                            min_time_confidence=cfg.summary_min_time_confidence,
+                            min_speed_confidence=cfg.summary_min_time_confidence if checked else None)
+    return true, found
 
 
 def evaluate_gait(gt_steps: list[Step], gt_events: list[GaitEvent], ga: GaitAnalyzer, *, fps: float,

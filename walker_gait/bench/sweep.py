@@ -312,18 +312,12 @@ def _summary_errors(runs: list[SessionRun]) -> dict[str, float]:
     reads (``summarize_steps`` of the detected steps with the analyzer's confidence cuts, as ``GaitAnalyzer.summary``
     gives them: ``checked`` for two-pass runs) against the same summary
     of the true steps, whose cadence is the walkway's definition (60 / their mean step time)."""
-    from walker_gait.core.gait import GaitConfig, summarize_steps
+    from walker_gait.bench.gait import session_summaries
 
-    cfg = GaitConfig()
     errs: dict[str, list[float]] = {"cadence": [], "speed": []}
     for r in runs:
-        true = summarize_steps(r.gt, max_step_time_s=cfg.max_step_time_s, max_step_time_ratio=cfg.summary_max_step_time_ratio,
-                              fit_step_rate=False)
-        det = summarize_steps(r.det, max_step_time_s=cfg.max_step_time_s, min_confidence=cfg.summary_min_confidence,
-                              max_step_time_ratio=cfg.summary_max_step_time_ratio,
-                              min_time_confidence=cfg.summary_min_time_confidence,
-                              # two passes: the steps were checked against them, as the pipeline's summary
-                              min_speed_confidence=cfg.summary_min_time_confidence if len(r.passes) >= 2 else None)
+        # two passes: the steps were checked against them, as the pipeline's summary
+        true, det = session_summaries(r.gt, r.det, checked=len(r.passes) >= 2)
         for name, t, d in (("cadence", true.cadence, det.cadence), ("speed", true.gait_speed, det.gait_speed)):
             if math.isfinite(t) and t > 0:
                 # a session without a detected walking step misses its figure entirely: 100 %
