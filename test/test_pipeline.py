@@ -260,21 +260,15 @@ def test_frame_store_reads_frames_back_bit_for_bit(short_session: Path, tmp_path
     view.close()
 
 
-def test_an_arriving_user_is_not_reported_before_the_backward_pass_has_seen_both_feet(tmp_path: Path) -> None:
-    """A user walking in from the side: the forward pass starts once it sees two legs, the backward pass ends its
-    track there and, alone, carried a leg it no longer saw (both model legs on the foot in view, 20-70 cm off).
-    Those frames get no pose; the frames it alone tracked after seeing both feet stay."""
+def _forward_pass_and_frames(path: Path) -> tuple[Any, Any, list[Any]]:
+    """A two-pass ``FrameProcessor`` fed every frame of the recording ``path`` (its forward pass: ``process`` returns
+    nothing until ``finish``), a second one that prepares the same frames again for a backward pass of its own, and
+    those prepared frames."""
     from types import SimpleNamespace
 
-    from walker_gait.core.smoothing import wait_for_both_feet
     from walker_gait.io.bags import open_recording
     from walker_gait.pipeline import FrameProcessor
-    from walker_gait.synth import SessionSpec, generate_session, write_session
 
-    session = generate_session(SessionSpec.preset("absent_start", duration=6.0, scale=0.5, absent_start=(0.2, 0.2)),
-                               rng=np.random.default_rng(1))
-    path = tmp_path / "arrival.mcap"
-    write_session(session, path, fmt="mcap", encoding="16UC1")
     proc, prep = FrameProcessor(_options(0, passes="both")), FrameProcessor(_options(0, passes="both"))
     frames = []
     for fr in open_recording(path).iter_frames():
@@ -284,8 +278,23 @@ def test_an_arriving_user_is_not_reported_before_the_backward_pass_has_seen_both
         prep.set_camera_info(info)
         kw = dict(stamp=fr.stamp, data=fr.data, encoding=fr.encoding, width=fr.width, height=fr.height, step=fr.step,
                   is_bigendian=fr.is_bigendian)
-        proc.process(**kw)
+        assert proc.process(**kw) is None
         frames.append(prep.prepare(**kw))
+    return proc, prep, frames
+
+
+def test_an_arriving_user_is_not_reported_before_the_backward_pass_has_seen_both_feet(tmp_path: Path) -> None:
+    """A user walking in from the side: the forward pass starts once it sees two legs, the backward pass ends its
+    track there and, alone, carried a leg it no longer saw (both model legs on the foot in view, 20-70 cm off).
+    Those frames get no pose; the frames it alone tracked after seeing both feet stay."""
+    from walker_gait.core.smoothing import wait_for_both_feet
+    from walker_gait.synth import SessionSpec, generate_session, write_session
+
+    session = generate_session(SessionSpec.preset("absent_start", duration=6.0, scale=0.5, absent_start=(0.2, 0.2)),
+                               rng=np.random.default_rng(1))
+    path = tmp_path / "arrival.mcap"
+    write_session(session, path, fmt="mcap", encoding="16UC1")
+    proc, prep, frames = _forward_pass_and_frames(path)
     raw = prep.backward(frames)
     fin = proc.finish()
     fwd, kept = fin.passes
@@ -311,11 +320,8 @@ def test_two_passes_merge_the_forward_pass_with_a_backward_one(short_session: Pa
     seed) and the backward pass's (blended where their feet agree), nearer the one chosen, in the share reported;
     the outputs say which was run."""
     import json
-    from types import SimpleNamespace
 
     from walker_gait.core.smoothing import wait_for_both_feet
-    from walker_gait.io.bags import open_recording
-    from walker_gait.pipeline import FrameProcessor
 
     one = process_recording(short_session, tmp_path / "one", options=_options(0, passes="forward"), progress=False)
     two = process_recording(short_session, tmp_path / "two", options=_options(0, passes="both"), progress=False)
@@ -329,18 +335,7 @@ def test_two_passes_merge_the_forward_pass_with_a_backward_one(short_session: Pa
     assert two.passes == "both" and two.frames_from_backward_pass == meta_two["frames_from_backward_pass"]
     assert "backward" in two.describe() and "one pass" in one.describe()
 
-    proc = FrameProcessor(_options(0, passes="both"))
-    prep = FrameProcessor(_options(0, passes="both"))  # prepares the same frames again for a backward pass of its own
-    frames = []
-    for fr in open_recording(short_session).iter_frames():
-        info = SimpleNamespace(**{k: getattr(fr.camera_info, k) for k in
-                                  ("width", "height", "k", "d", "p", "distortion_model")})
-        proc.set_camera_info(info)
-        prep.set_camera_info(info)
-        assert proc.process(stamp=fr.stamp, data=fr.data, encoding=fr.encoding, width=fr.width, height=fr.height,
-                            step=fr.step, is_bigendian=fr.is_bigendian) is None
-        frames.append(prep.prepare(stamp=fr.stamp, data=fr.data, encoding=fr.encoding, width=fr.width,
-                                   height=fr.height, step=fr.step, is_bigendian=fr.is_bigendian))
+    proc, prep, frames = _forward_pass_and_frames(short_session)
     fin = proc.finish()
     assert len(fin.results) == 75
     # the merged passes are kept: the forward one is the one-pass pipeline's, the backward one ours without the

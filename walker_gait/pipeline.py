@@ -475,7 +475,8 @@ class FrameProcessor:
         over the same frames, else over the frames kept here; ``progress`` wraps its loop's frame indices, e.g. a
         tqdm bar), without the poses it alone gave before it had seen both feet
         (:func:`walker_gait.core.smoothing.wait_for_both_feet`), the passes merged
-        (:func:`walker_gait.core.smoothing.merge_passes`), the gait analyzer over the merged poses.  Then the gait analyzer's last events and steps."""
+        (:func:`walker_gait.core.smoothing.merge_passes`), the gait analyzer over the merged poses.  Then the gait
+        analyzer's last events and steps."""
         results: list[FrameResult] = []
         share = math.nan
         kept: tuple[PassTrack, ...] = ()

@@ -330,7 +330,7 @@ def evaluate(session: Any, *, preset: str = "default", cue: str | None = None, s
         score.hs_timing_median_frames = float(np.median(dt) * session.spec.fps)
     # the cadence of the session summary a clinician reads against the true steps' (the steps a summary pools: a
     # user walking in from the side takes steps the walker does not measure, which the detected ones lack)
-    true_summary, summary = session_summaries(gt, list(steps), checked=passes == "both")
+    true_summary, summary = session_summaries(gt, steps, checked=passes == "both")
     if math.isfinite(true_summary.cadence) and true_summary.cadence > 0 and math.isfinite(summary.cadence):
         score.cadence_err_pct = float((summary.cadence / true_summary.cadence - 1) * 100)
     return score

@@ -39,7 +39,7 @@ from typing import Protocol
 import numpy as np
 from numpy.typing import NDArray
 
-from walker_gait.core.types import CameraIntrinsics, EventKind, FloorPlane, GaitEvent, LegPose, Step, TrackStatus
+from walker_gait.core.types import CameraIntrinsics, EventKind, FloorPlane, GaitEvent, LegPose, Step
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.intp]
@@ -251,8 +251,7 @@ def wait_for_both_feet(track: PassTrack, *, other: PassTrack | None = None,
             keep[t] = bool(seen.all()) or (other is not None and bool(np.all(np.isfinite(other.poses[t].points))))
     if keep.all():
         return track
-    poses = [p if keep[t] else LegPose(stamp=p.stamp, points=np.full((2, 5, 3), np.nan), status=TrackStatus.NO_USER,
-                                         confidence=0.0) for t, p in enumerate(track.poses)]
+    poses = [p if keep[t] else LegPose.no_user(p.stamp) for t, p in enumerate(track.poses)]
     return dataclasses.replace(track, poses=poses, scores=np.where(keep, track.scores, -np.inf))
 
 

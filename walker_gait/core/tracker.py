@@ -134,7 +134,6 @@ from walker_gait.core.types import (
     HEEL,
     HIP,
     KNEE,
-    JOINT_NAMES,
     TOE,
     CameraIntrinsics,
     FloorPlane,
@@ -695,7 +694,7 @@ class LegTracker:
                 # view): hold the track instead of re-detecting from whatever partial view comes next
                 return self._coast(stamp)
             self.reset()
-            return self._empty_pose(stamp)
+            return LegPose.no_user(stamp)
         legs = self.legs_in_view(pts, depth, floor)
         frame = None
         if holding:
@@ -713,7 +712,7 @@ class LegTracker:
         if self._no_legs_run > (cfg.lost_frames if self.status != TrackStatus.NO_USER else 0):
             self.reset()
             self._no_legs_run = 1
-            return self._empty_pose(stamp)
+            return LegPose.no_user(stamp)
         if frame is None:
             frame = self._prepare(pts, depth, floor, no_depth)
         self._coasted = 0
@@ -726,7 +725,7 @@ class LegTracker:
                     self._wait_start = float(stamp)
                 if float(stamp) - self._wait_start < cfg.single_leg_wait_s:
                     self.status = TrackStatus.SEARCHING
-                    return dataclasses.replace(self._empty_pose(stamp), status=TrackStatus.SEARCHING)
+                    return dataclasses.replace(LegPose.no_user(stamp), status=TrackStatus.SEARCHING)
         if self._x is None:
             self._initialise(frame)
             self._fresh = False
@@ -803,16 +802,6 @@ class LegTracker:
         inside = inside.reshape(2, 3, -1)[:, 1:]
         n = int(np.count_nonzero(inside))
         return n > 0 and int(np.count_nonzero(unknown.reshape(2, 3, -1)[:, 1:])) >= share * n
-
-    def _empty_pose(self, stamp: float) -> LegPose:
-        return LegPose(
-            stamp=stamp,
-            points=np.full((2, 5, 3), np.nan),
-            angles=np.full(len(JOINT_NAMES), np.nan),
-            status=TrackStatus.NO_USER,
-            confidence=0.0,
-            ess=float("nan"),
-        )
 
     def _prepare(self, pts: NDArray[np.floating], depth: NDArray[np.floating], floor: FloorPlane,
                  no_depth: NDArray[np.bool_] | None = None, *, rng: np.random.Generator | None = None,

@@ -231,6 +231,11 @@ class LegPose:
     confidence: float = 1.0  # 0..1
     ess: float = float("nan")  # effective sample size of the particle set
 
+    @classmethod
+    def no_user(cls, stamp: float) -> LegPose:
+        """The pose of a frame without legs to report: no points, ``NO_USER``, confidence 0."""
+        return cls(stamp=stamp, points=np.full((2, 5, 3), np.nan), status=TrackStatus.NO_USER, confidence=0.0)
+
 
 @dataclass(frozen=True, kw_only=True)
 class GaitEvent:
