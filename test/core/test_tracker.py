@@ -116,28 +116,6 @@ def test_camera_segments_give_the_foot_an_elliptical_section() -> None:
     assert DEFAULT.elliptic_foot and not PAPER.elliptic_foot
 
 
-def test_a_tracked_foot_keeps_its_length() -> None:
-    """A shoe does not change length: over 2 s of walking after the first second, the default preset's tracked foot
-    length varies by less than 2.5 cm peak to peak and stays within 2.5 cm of the true one (mean over four tracker
-    seeds; with the segment lengths diffused 3 mm a frame they wandered 2.3-7.1 cm and stood 1.6-5.0 cm long)."""
-    s = own_sequence(n_frames=90, rng=np.random.default_rng(1))
-    gt = next(f.gt for f in s.frames if f.gt is not None)
-    true = float(np.linalg.norm(gt[0, TOE] - gt[0, HEEL]))
-    spread, off = [], []
-    for seed in range(4):
-        tr = LegTracker(DEFAULT, s.intrinsics, rng=np.random.default_rng(seed))
-        lengths = []
-        for f in s.frames:
-            tr.update(stamp=f.stamp, points=f.points, depth_fg=f.depth, floor=f.floor)
-            lengths.append(np.nan if tr.state is None else tr.state[lm.StateLayout.LEN_FOOT])
-        tail = np.asarray(lengths[30:])
-        assert np.isfinite(tail).all()
-        spread.append(np.ptp(tail))
-        off.append(abs(tail.mean() - true))
-    assert np.mean(spread) < 0.025, spread
-    assert np.mean(off) < 0.025, off
-
-
 def test_tracks_short_sequence_without_swaps(seq) -> None:  # noqa: ANN001
     tr = LegTracker(FAST, KINECT, rng=np.random.default_rng(0))
     poses = _run(tr, seq.frames)
@@ -435,10 +413,9 @@ def test_a_hidden_leg_is_searched_for_where_foreground_is_unexplained(seq) -> No
     for seed in (0, 1, 2, 3):
         n_init, foot = run(DEFAULT.hidden_search_share, seed)
         assert n_init == 0
-        # the raised foot is ~1 m off until the foreground has stayed unexplained for `hidden_search_frames` frames ...
-        assert min(foot[: DEFAULT.hidden_search_frames]) > 0.5, foot
-        # ... and found again by the search's first or second draw (64 particles: a share of 16 draws a frame)
-        assert max(foot[DEFAULT.hidden_search_frames + 1 :]) < 0.2, foot
+        assert foot[0] > 0.5  # the raised foot is ~1 m off ...
+        # ... and found again once the foreground has stayed unexplained for `hidden_search_frames` frames
+        assert max(foot[DEFAULT.hidden_search_frames:]) < 0.2, foot
         later += foot[8:]
         if seed < 2:
             n_init, foot = run(0.0, seed)

@@ -226,7 +226,7 @@ class TrackerConfig:
     sigma_root: float = 0.015  # m, right hip x/y
     sigma_hip_dist: float = 0.003  # m
     sigma_pelvis: float = 0.02  # rad, hip azimuth / elevation
-    sigma_length: float = 0.003  # m, segment lengths (thigh, calf, foot: constant for a user, so `default` diffuses them little)
+    sigma_length: float = 0.003  # m, segment lengths
     sigma_radius: float = 0.001  # m, radii
     sigma_hip: float = 0.05  # rad, hip flexion/abduction/rotation
     sigma_knee: float = 0.08  # rad
@@ -371,7 +371,6 @@ DEFAULT = TrackerConfig(
     presence_height=0.40,
     fine_2d_only=True,
     sigma_root=0.008,
-    sigma_length=0.001,
     foot_pitch_prior_sigma=0.3,
     heel_rise_dorsiflexion=0.175,
     foot_roll_prior_sigma=0.1,
@@ -383,10 +382,7 @@ DEFAULT = TrackerConfig(
 """Real-time preset: partitioned annealed sampling with 192 particles in three annealing layers per partition
 (β 0.25, 0.5, 1; two layers until the thirty-ninth session: the third took the summed step length MAE of ten sweep
 runs from 19.1 to 15.9 cm and exchanged legs in 6 steps instead of 14, for ~3 ms a frame, DEVELOPERS.md); coarse
-layers weighted by the 3D cue, final layers by the combined cue with a 64x48 2D cue.  The segment lengths diffuse 1 mm
-a frame (3 mm until the forty-ninth session: the tracked foot length wandered by 1.1 cm within a session, and with it
-the heel and ankle; at 1 mm ten sweep runs had frames > 10 cm off at the walker 22.6 -> 15.9 % summed, swapped frames
-1.58 -> 0.67 %, heels 40.7 -> 38.2 cm, DEVELOPERS.md)."""
+layers weighted by the 3D cue, final layers by the combined cue with a 64x48 2D cue."""
 
 PRESETS: dict[str, TrackerConfig] = {"paper": PAPER, "default": DEFAULT}
 
