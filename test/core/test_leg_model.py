@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from walker_gait.core import leg_model as lm
 from walker_gait.core.leg_model import BodyFrame, StateLayout as L
@@ -323,3 +324,91 @@ def test_enforce_constraints_replaces_only_bad_particles() -> None:
     for name in ("segments", "radii", "points", "foot_lateral"):
         np.testing.assert_allclose(getattr(kin, name), getattr(ref, name), rtol=0, atol=1e-12, err_msg=name)
         np.testing.assert_array_equal(getattr(kin, name)[~replaced], getattr(kin0, name)[~replaced])
+
+
+def _pitches(points: np.ndarray) -> np.ndarray:
+    """Heel-up pitch (rad) of each foot of ``points`` (..., 2, 5, 3)."""
+    d = points[..., TOE, :2] - points[..., HEEL, :2]
+    return np.arctan2(points[..., HEEL, 2] - points[..., TOE, 2], np.linalg.norm(d, axis=-1))
+
+
+def _feet_pitched(ankle_flex: np.ndarray, *, lift: float = 0.0) -> lm.Kinematics:
+    """Standing poses whose right ankle is flexed by ``ankle_flex`` (P,), on the floor (raised by ``lift``)."""
+    x = np.tile(lm.neutral_state(), (ankle_flex.size, 1))
+    x[:, L.RIGHT.start + L.ANKLE_FLEX] = ankle_flex
+    x = lm.apply_floor_contact(x)
+    x[:, L.ROOT_Z] += lift
+    return lm.forward_kinematics(x)
+
+
+def test_flatten_feet_lays_a_nearly_flat_foot_on_the_floor_rigidly() -> None:
+    flex = np.array([-0.12, -0.05, 0.0, 0.05, 0.12])
+    kin = _feet_pitched(flex)
+    before = kin.points
+    out = lm.flatten_feet(before, lm.sole_heights(kin), flat_below=0.14, blend_to=0.28, floor_tol=0.03)
+    # flat: heel and toe at one height, that of the sole's lowest point (on the floor; a pitched foot's end
+    # point dips below the sole's contact, where its rounded end meets the sole axis)
+    np.testing.assert_allclose(_pitches(out)[:, 1], 0.0, atol=1e-9)
+    np.testing.assert_allclose(out[:, 1, HEEL, 2], lm.sole_heights(kin)[:, 1], atol=1e-9)
+    # rigid: the foot's points keep their distances; hips, knees and the other foot are untouched
+    for i, j in ((HEEL, TOE), (ANKLE, HEEL), (ANKLE, TOE)):
+        np.testing.assert_allclose(np.linalg.norm(out[:, 1, i] - out[:, 1, j], axis=-1),
+                                   np.linalg.norm(before[:, 1, i] - before[:, 1, j], axis=-1), atol=1e-9)
+    np.testing.assert_array_equal(out[:, :, (HIP, KNEE)], before[:, :, (HIP, KNEE)])
+    np.testing.assert_array_equal(out[:, 0], before[:, 0])
+    # a foot pitched heel-up turns about its toe end, one pitched toe-up about its heel end: the sole axis keeps
+    # that point
+    up, down = _pitches(before)[:, 1] > 0.01, _pitches(before)[:, 1] < -0.01
+    assert up.any() and down.any()
+    for sel, end in ((up, 1), (down, 0)):
+        contact = kin.segments[sel, 1, 2, end]
+        ax = out[sel, 1, TOE] - out[sel, 1, HEEL]
+        t = np.einsum("ij,ij->i", contact - out[sel, 1, HEEL], ax) / np.einsum("ij,ij->i", ax, ax)
+        np.testing.assert_allclose(out[sel, 1, HEEL] + t[:, None] * ax, contact, atol=1e-9)
+    # the input is not modified
+    np.testing.assert_array_equal(kin.points, before)
+
+
+def test_flatten_feet_leaves_heel_rises_landings_and_feet_in_the_air() -> None:
+    kin = _feet_pitched(np.array([-0.6, 0.5]))  # well heel-up / toe-up
+    out = lm.flatten_feet(kin.points, lm.sole_heights(kin), flat_below=0.14, blend_to=0.28, floor_tol=0.03)
+    np.testing.assert_array_equal(out, kin.points)
+    air = _feet_pitched(np.array([-0.05, 0.05]), lift=0.05)  # both feet 5 cm up: no foot on the floor
+    out = lm.flatten_feet(air.points, lm.sole_heights(air), flat_below=0.14, blend_to=0.28, floor_tol=0.03)
+    np.testing.assert_array_equal(out, air.points)
+
+
+def test_flatten_feet_pitch_map_is_continuous_and_monotonic() -> None:
+    flex = np.linspace(-0.5, 0.5, 401)
+    kin = _feet_pitched(flex)
+    p_in = _pitches(kin.points)[:, 1]
+    p_out = _pitches(lm.flatten_feet(kin.points, lm.sole_heights(kin), flat_below=0.1, blend_to=0.2,
+                                     floor_tol=0.03))[:, 1]
+    order = np.argsort(p_in)
+    p_in, p_out = p_in[order], p_out[order]
+    assert np.all(np.diff(p_out) >= -1e-9)  # monotonic
+    assert np.max(np.abs(np.diff(p_out))) < 5 * np.max(np.diff(p_in))  # no jump
+    np.testing.assert_allclose(p_out[np.abs(p_in) <= 0.1], 0.0, atol=1e-9)
+    far = np.abs(p_in) >= 0.2
+    np.testing.assert_allclose(p_out[far], p_in[far], atol=1e-9)
+
+
+def test_flatten_feet_takes_the_pitch_spread_out_of_a_mean_heel() -> None:
+    """Particles each standing on the floor at their lowest point with a spread of pitch average to a heel
+    above the floor; flattened, their mean heel is where their soles are (on the floor, or a few millimetres
+    above it where the other foot is the lower one)."""
+    rng = np.random.default_rng(3)
+    kin = _feet_pitched(rng.normal(0.0, 0.05, 400))
+    w = np.full(400, 1 / 400)
+    heel_before = w @ kin.points[:, 1, HEEL, 2]
+    out = lm.flatten_feet(kin.points, lm.sole_heights(kin), flat_below=0.14, blend_to=0.28, floor_tol=0.03)
+    heel_after = w @ out[:, 1, HEEL, 2]
+    assert heel_before > 0.002
+    np.testing.assert_allclose(heel_after, w @ lm.sole_heights(kin)[:, 1], atol=1e-5)  # the soles' own height (a few pitched past the band)
+    assert 0.0 <= heel_after < 0.25 * heel_before
+
+
+def test_flatten_feet_rejects_a_bad_band() -> None:
+    kin = _feet_pitched(np.array([0.0]))
+    with pytest.raises(ValueError, match="flat_below"):
+        lm.flatten_feet(kin.points, lm.sole_heights(kin), flat_below=0.2, blend_to=0.1, floor_tol=0.03)

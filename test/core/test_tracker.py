@@ -11,7 +11,7 @@ import dataclasses
 import numpy as np
 import pytest
 
-from walker_gait.bench.tracker import KINECT, own_sequence
+from walker_gait.bench.tracker import KINECT, own_sequence, render_frame
 from walker_gait.core import leg_model as lm
 from walker_gait.core.tracker import (
     DEFAULT,
@@ -1052,3 +1052,50 @@ def test_a_leg_in_a_hole_of_the_depth_image_is_carried_not_thrown_out() -> None:
         LegTracker(FAST, KINECT, rng=np.random.default_rng(0)).update(
             stamp=0.0, points=gap.frames[0].points, depth_fg=gap.frames[0].depth, floor=gap.frames[0].floor,
             no_depth=holes[0][:-1])
+
+
+def test_flat_feet_report_changes_what_is_reported_not_what_is_tracked(seq) -> None:  # noqa: ANN001
+    off = dataclasses.replace(FAST, flat_feet_report=(0.0, 0.0))
+    on = dataclasses.replace(FAST, flat_feet_report=(0.14, 0.28))
+    ta, tb = LegTracker(off, KINECT, rng=np.random.default_rng(4)), LegTracker(on, KINECT, rng=np.random.default_rng(4))
+    moved = 0
+    for f in seq.frames[:10]:
+        pa = ta.update(stamp=f.stamp, points=f.points, depth_fg=f.depth, floor=f.floor)
+        pb = tb.update(stamp=f.stamp, points=f.points, depth_fg=f.depth, floor=f.floor)
+        np.testing.assert_array_equal(ta.particles, tb.particles)
+        np.testing.assert_array_equal(pa.angles, pb.angles)
+        np.testing.assert_array_equal(pa.points[:, :2], pb.points[:, :2])  # hips and knees
+        moved += int(not np.array_equal(pa.points, pb.points))
+    assert moved > 0  # the feet's points are what it changes
+    with pytest.raises(ValueError, match="flat_feet_report"):
+        preset("default", flat_feet_report=(0.3, 0.2))
+    with pytest.raises(ValueError, match="flat_feet_report"):
+        preset("default", flat_feet_floor_tol=0.0)
+
+
+def test_standing_feet_are_reported_on_the_floor_whatever_the_particles_spread_of_pitch() -> None:
+    """Particles of a standing user, each on the floor at its lowest sole point, with a 3 degree spread of ankle
+    flexion: the weighted mean lifts the heels (every particle's other end is up); reported flat, they stand on
+    the particles' soles."""
+    rng = np.random.default_rng(2)
+    floor = FloorPlane.from_camera_pose(height=0.70, pitch=0.50)
+    state = lm.neutral_state(right_hip_xy=(-0.85, -0.09), hip_dist=0.18)
+    frame = render_frame(state, intrinsics=KINECT, floor=floor, mounting="facing_user", rng=rng, stamp=0.0)
+    x = np.repeat(state[None], 200, axis=0)
+    for side in (0, 1):
+        x[:, lm.StateLayout.leg(side).start + lm.StateLayout.ANKLE_FLEX] = rng.normal(0.0, 0.05, 200)
+    x = lm.apply_floor_contact(x)
+    heels = {}
+    for band in ((0.0, 0.0), (0.14, 0.28)):
+        tr = LegTracker(dataclasses.replace(FAST, flat_feet_report=band, toe_from_data=False), KINECT,
+                        rng=np.random.default_rng(0))
+        tr._x, tr._logw = x.copy(), np.zeros(200)
+        pose, *_ = tr._estimate(tr._prepare(frame.points, frame.depth, frame.floor), 0.0)
+        heels[band] = floor.height(pose.points[:, HEEL])
+    np.testing.assert_allclose(floor.height(frame.gt[:, HEEL]), 0.0, atol=1e-9)
+    assert np.all(heels[(0.0, 0.0)] > 0.002), heels
+    # flattened, each heel stands at its particles' mean sole height: 0 where the foot is the lower one, a few
+    # millimetres where the particle's other foot is
+    soles = lm.sole_heights(lm.forward_kinematics(x)).mean(axis=0)
+    np.testing.assert_allclose(heels[(0.14, 0.28)], soles, atol=2e-4)
+    assert np.all(heels[(0.14, 0.28)] < 0.5 * heels[(0.0, 0.0)]), heels

@@ -479,6 +479,57 @@ def sole_heights(kin: Kinematics) -> FloatArray:
     return _sole_heights(z[..., 0], z[..., 1], foot_half_width(kin.radii[:, :, 2, 0]), kin.foot_lateral[:, :, 2])
 
 
+def flatten_feet(
+    points: FloatArray, soles: FloatArray, *, flat_below: float, blend_to: float, floor_tol: float
+) -> FloatArray:
+    """``points`` ``(P, 2, 5, 3)`` (``LEG_POINTS``, body frame) with each foot that stands on the floor nearly flat
+    reported flat: for the reporting of a pose, not its tracking.
+
+    A foot whose lowest sole corner (``soles`` ``(P, 2)``, :func:`sole_heights`) lies within ``floor_tol`` of the
+    floor and whose heel-to-toe pitch ``p`` is under ``blend_to`` (rad, either way) has its ankle, heel and toe turned
+    about its lower end (where the sole touches the floor: the toe end of a heel-up foot, the heel end of a toe-up
+    one) in the foot's vertical plane to the pitch
+    ``0`` while ``|p| <= flat_below``, and ``sign(p) (|p| - flat_below) blend_to / (blend_to - flat_below)`` up to
+    ``blend_to``, where it is the foot's own again (continuous and monotonic: a heel rise or a landing foot's toe
+    keeps its course).  Hips and knees are left as they are.
+
+    A shoe standing on the floor has its sole on it.  A particle filter places each particle's lowest sole corner on
+    the floor, so a spread of pitch among its particles lifts the mean heel and toe (each particle's other end up),
+    and a model foot pitched a few degrees to fit a shoe's upper lifts the heel with it.
+    """
+    if not 0.0 <= flat_below < blend_to:
+        raise ValueError(f"need 0 <= flat_below < blend_to, got {flat_below}, {blend_to}")
+    out = np.array(points, dtype=np.float64)
+    heel, toe = out[..., HEEL, :], out[..., TOE, :]
+    d = toe[..., :2] - heel[..., :2]
+    run = np.sqrt(np.einsum("...i,...i->...", d, d))
+    pitch = np.arctan2(heel[..., 2] - toe[..., 2], run)  # > 0: heel up
+    mag = np.abs(pitch)
+    target = np.where(mag <= flat_below, 0.0, np.sign(pitch) * (mag - flat_below) * blend_to / (blend_to - flat_below))
+    turn = np.where((mag < blend_to) & (np.asarray(soles) < floor_tol) & (run > 1e-6), pitch - target, 0.0)
+    if not np.any(turn):
+        return out
+    u = np.zeros_like(heel)
+    u[..., :2] = d / np.maximum(run, 1e-9)[..., None]
+    # the sole touches the floor where the foot capsule's rounded end meets the sole axis (its segment end, inset
+    # from the heel / toe point by the end's radius: :func:`sole_heights`); a pitched foot's end point itself dips
+    # below that, so the turn is about the segment end and a flattened foot's heel and toe come to its height
+    axis = toe - heel
+    pivot = np.where((pitch > 0.0)[..., None], toe - axis * (FOOT_TOE_RADIUS * FOOT_CAP_INSET),
+                     heel + axis * (FOOT_HEEL_RADIUS * FOOT_CAP_INSET))
+    c, s = np.cos(turn)[..., None], np.sin(turn)[..., None]
+    for j in (ANKLE, HEEL, TOE):
+        rel = out[..., j, :] - pivot
+        a = np.einsum("...i,...i->...", rel, u)[..., None]
+        z = rel[..., 2:3]
+        lateral = rel - a * u
+        lateral[..., 2] = 0.0
+        a2, z2 = a * c - z * s, a * s + z * c
+        out[..., j, :] = pivot + lateral + a2 * u
+        out[..., j, 2] = pivot[..., 2] + z2[..., 0]
+    return out
+
+
 def _dot3(u: FloatArray, v: FloatArray) -> FloatArray:
     """Dot products over the first axis (length 3, xyz) of broadcast ``u`` and ``v``, summed in order."""
     w = u * v

@@ -61,7 +61,11 @@ lives in the floor-aligned *body* frame of :mod:`walker_gait.core.leg_model`):
    the half-cylinder made the filter shorten the model foot (by ~3.7 cm) to hide its too-wide heel;
 5. final weights with the full likelihood; estimate = weighted mean (points and angles); with
    ``toe_from_data`` (``default``) each reported toe is then measured from the foreground around the tracked
-   foot (:mod:`walker_gait.core.feet`: the front of its toe box), the particles left as they are;
+   foot (:mod:`walker_gait.core.feet`: the front of its toe box), the particles left as they are; with
+   ``flat_feet_report`` (``default``) each particle's foot that stands on the floor nearly flat is turned flat about
+   its sole's contact before the mean (:func:`walker_gait.core.leg_model.flatten_feet`): every particle stands on
+   the floor at its lowest point, so a spread of pitch among them lifted the mean heel, and a model foot pitched a
+   few degrees to fit a shoe's upper lifted it further (flat feet's heels were reported 1.6-1.8 cm up);
 6. hidden-part handling: per-segment visibility of the estimate by comparing its rendered
    depth with the observed depth, a VISIBLE/HIDDEN state machine per segment (seed 003
    fig. 7); hidden segments are left out of ``d_MF`` (carried by the dynamics) and, when a
@@ -233,6 +237,8 @@ class TrackerConfig:
     sigma_ankle: float = 0.07  # rad
     # model
     toe_from_data: bool = False  # report each toe measured from the foreground around the tracked foot (the front of its toe box, see `feet`) instead of the model foot's end, except where the shoe may be cut by the image's border; the particles are unchanged (false: the model's, paper)
+    flat_feet_report: tuple[float, float] = (0.0, 0.0)  # rad (flat_below, blend_to): a reported foot whose particles stand on the floor within `flat_feet_floor_tol` is turned flat about its lower end where pitched less than flat_below either way, blending back to its own pitch at blend_to (see `leg_model.flatten_feet`); the particles are unchanged ((0, 0) = off, paper)
+    flat_feet_floor_tol: float = 0.01  # m, lowest sole corner height under which a particle's foot stands on the floor for `flat_feet_report`
     elliptic_foot: bool = False  # likelihood sees each foot as a half-ellipse as tall as its radius and 0.155 x foot length wide, like a shoe (false: the paper's half-cylinder)
     # pose prior
     ankle_prior_sigma: float = math.inf  # rad, Gaussian prior on ankle flexion around neutral (inf = none, paper)
@@ -291,6 +297,10 @@ class TrackerConfig:
         if not (self.foot_roll_prior_sigma > 0 and self.foot_pitch_prior_sigma > 0 and self.feet_crossing_sigma > 0):
             raise ValueError("foot_pitch_prior_sigma, foot_roll_prior_sigma and feet_crossing_sigma must be > 0 "
                              "(inf = no prior)")
+        below, blend = self.flat_feet_report
+        if not ((below, blend) == (0.0, 0.0) or 0.0 <= below < blend) or not self.flat_feet_floor_tol > 0:
+            raise ValueError("flat_feet_report must be (0, 0) (off) or (flat_below, blend_to) with 0 <= flat_below < "
+                             f"blend_to, and flat_feet_floor_tol > 0, got {self.flat_feet_report}, {self.flat_feet_floor_tol}")
         self.presence_test()  # validates the presence_* fields
 
     def presence_test(self) -> PresenceTest:
@@ -378,6 +388,8 @@ DEFAULT = TrackerConfig(
     feet_crossing_sigma=0.03,
     elliptic_foot=True,
     toe_from_data=True,
+    flat_feet_report=(0.14, 0.28),
+    flat_feet_floor_tol=0.03,
 )
 """Real-time preset: partitioned annealed sampling with 192 particles in three annealing layers per partition
 (β 0.25, 0.5, 1; two layers until the thirty-ninth session: the third took the summed step length MAE of ten sweep
@@ -1195,7 +1207,12 @@ class LegTracker:
         w = normalise_log_weights(self._logw)
         mean = w @ self._x
         kin_all = lm.forward_kinematics(self._x)
-        pts_body = np.einsum("p,pijk->ijk", w, kin_all.points)
+        points = kin_all.points
+        if self.config.flat_feet_report[1] > 0.0:
+            below, blend = self.config.flat_feet_report
+            points = lm.flatten_feet(points, lm.sole_heights(kin_all), flat_below=below, blend_to=blend,
+                                     floor_tol=self.config.flat_feet_floor_tol)
+        pts_body = np.einsum("p,pijk->ijk", w, points)
         mean_c, kin_mean, _ = lm.enforce_constraints(mean[None])
         self._mean = mean_c[0]
         seg_c, rad, _ = self._cam_segments(frame, kin_mean, (0, 1))
