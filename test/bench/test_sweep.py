@@ -170,6 +170,22 @@ def test_summary_errors_compare_the_session_cadence_and_speed_with_the_truth() -
     r.det[4] = replace(r.det[4], step_length=1.0)
     e = sweep.summarise([r])
     assert e["cadence_abs_err_pct"] == pytest.approx(0.0, abs=1e-9) and e["speed_abs_err_pct"] == pytest.approx(0.0, abs=1e-9)
+    # the true steps a user takes on the way to the walker (ankles a metre to its side) are not the walker's to
+    # measure: the true summary leaves them out, as the recall in view does
+    r.gt = steps([0.6 * k for k in range(8)], length=0.5)
+    r.gt[:3] = [replace(g, step_length=0.2) for g in r.gt[:3]]  # short steps while walking up from the side ...
+    r.det = steps([0.6 * k for k in range(3, 8)], length=0.5)  # ... which the walker does not see
+    n = 150  # 5 s
+    r.stamps, r.trackable, r.present = np.arange(n) / 30.0, np.ones(n, dtype=bool), np.ones(n, dtype=bool)
+    r.truth = np.repeat(r.truth[:1], n, axis=0)
+    r.est = r.truth.copy()
+    r.truth[:14, :, ANKLE, 0] = -1.0  # to 0.43 s the user is beside the walker: a step needs 1 s at it before
+    assert [g.stamp for g in sweep.true_steps_at_walker(r)] == pytest.approx([1.8, 2.4, 3.0, 3.6, 4.2])
+    e = sweep.summarise([r])
+    assert e["cadence_abs_err_pct"] == pytest.approx(0.0, abs=1e-9) and e["speed_abs_err_pct"] == pytest.approx(0.0, abs=1e-9)
+    r.truth[:, :, ANKLE, 0] = np.array([0.1, -0.1])  # at the walker all along: the short steps count, and are missed
+    assert len(sweep.true_steps_at_walker(r)) == 6  # the first second: no evidence the user could be seen
+    assert sweep.summarise([r])["speed_abs_err_pct"] > 10.0
     r.det, r.pairs = [], []
     e = sweep.summarise([r])
     assert e["cadence_abs_err_pct"] == 100.0 and e["speed_abs_err_pct"] == 100.0

@@ -116,7 +116,9 @@ def section_endtoend(scenarios: tuple[str, ...], duration: float, seed: int) -> 
              "legs anywhere in the image) until the mean error of the ten points stays under 10 cm for 5 frames; "
              "n/a where the user is in view throughout.",
              "Cadence error: the session summary's cadence (what `summary.json` reports: the walkway's 60 / mean step "
-             "time over the steps the summary pools) against the same figure of all true steps, signed %.",
+             "time over the steps the summary pools) against the same figure of the true steps taken at the walker (in view "
+             "with both ankles in its region of interest, as the recall in view: a user walking up from the side takes "
+             "steps the walker does not measure), signed %.",
              "",
              "| scenario | cue | step length err cm | step width err cm | steps det/true (matched) | precision | "
              "recall (in view) | HS timing (median, frames) | cadence err % | hip | knee | ankle | heel | toe | frames > 10 cm % | "

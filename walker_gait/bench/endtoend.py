@@ -328,9 +328,10 @@ def evaluate(session: Any, *, preset: str = "default", cue: str | None = None, s
     dt = np.array([abs(steps[d].stamp - gt[t].stamp) for t, d in pairs])
     if dt.size:
         score.hs_timing_median_frames = float(np.median(dt) * session.spec.fps)
-    # the cadence of the session summary a clinician reads against the true steps' (the steps a summary pools: a
-    # user walking in from the side takes steps the walker does not measure, which the detected ones lack)
-    true_summary, summary = session_summaries(gt, steps, checked=passes == "both")
+    # the cadence of the session summary a clinician reads against the true steps' at the walker (a user walking in
+    # from the side takes steps the walker does not measure by design, as for the recall in view)
+    true_summary, summary = session_summaries([g for g, v in zip(gt, in_view, strict=True) if v], steps,
+                                              checked=passes == "both")
     if math.isfinite(true_summary.cadence) and true_summary.cadence > 0 and math.isfinite(summary.cadence):
         score.cadence_err_pct = float((summary.cadence / true_summary.cadence - 1) * 100)
     return score
