@@ -314,13 +314,17 @@ def true_steps_at_walker(run: SessionRun) -> list[Step]:
     walker does not measure by design; compared with a summary that pooled them, the gait speed of the
     ``absent_start`` sessions came out 10 % fast on average (their approach steps and the closing step at the walker
     are shorter than the walking ones), though the steps at the walker were measured to 1-2 cm."""
+    return [s for s, v in zip(run.gt, _in_view_at_walker(run), strict=True) if v]
+
+
+def _in_view_at_walker(run: SessionRun) -> np.ndarray:
+    """``(len(run.gt),)`` which true steps the recall in view counts (see :func:`true_steps_at_walker`)."""
     from walker_gait.bench.endtoend import IN_VIEW_TAIL_S, at_walker, steps_in_view
 
     if not run.gt:
-        return []
+        return np.zeros(0, dtype=bool)
     hs = np.array([s.stamp for s in run.gt])
-    iv = steps_in_view(hs, run.stamps, run.present & at_walker(run.truth, run.true_floor), tail_s=IN_VIEW_TAIL_S)
-    return [s for s, v in zip(run.gt, iv, strict=True) if v]
+    return steps_in_view(hs, run.stamps, run.present & at_walker(run.truth, run.true_floor), tail_s=IN_VIEW_TAIL_S)
 
 
 def _summary_errors(runs: list[SessionRun]) -> dict[str, float]:
@@ -382,7 +386,7 @@ def summarise(runs: list[SessionRun]) -> dict[str, Any]:
     """Figures of a set of runs (one tracker seed, or several pooled)."""
     import warnings
 
-    from walker_gait.bench.endtoend import IN_VIEW_TAIL_S, at_walker, steps_in_view
+    from walker_gait.bench.endtoend import at_walker, steps_in_view
 
     err_all, good_all, flen, bad_at_walker = [], [], [], []
     gt = det = matched = in_view = matched_in_view = in_image = matched_in_image = 0
@@ -405,7 +409,7 @@ def summarise(runs: list[SessionRun]) -> dict[str, Any]:
             matched += len(r.pairs)
             if r.gt:
                 hs = np.array([s.stamp for s in r.gt])
-                iv = steps_in_view(hs, r.stamps, r.present & at_walker(r.truth, r.true_floor), tail_s=IN_VIEW_TAIL_S)
+                iv = _in_view_at_walker(r)
                 # the older, looser count: the user anywhere in the image, up to the last frame
                 ii = steps_in_view(hs, r.stamps, r.present)
             else:
