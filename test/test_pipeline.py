@@ -345,9 +345,16 @@ def test_two_passes_merge_the_forward_pass_with_a_backward_one(short_session: Pa
     backward = wait_for_both_feet(prep.backward(frames), other=fin.passes[0])
     np.testing.assert_array_equal([p.points for p in fin.passes[1].poses], [p.points for p in backward.poses])
     np.testing.assert_array_equal([r.pose.points for r in fin.results], [p.points for p in two.poses])
+    # the poses reported are the merged ones with hidden feet bridged (core.smoothing.reported_poses); the analyzer
+    # reads the merged ones
+    from walker_gait.core.smoothing import merge_passes, reported_poses
+
+    merged = merge_passes(list(fin.passes)).poses
+    shown = reported_poses(merged, hide_below=proc.options.tracker.hide_below, max_gap_s=proc.options.bridge_hidden_s)
+    np.testing.assert_array_equal([r.pose.points for r in fin.results], [p.points for p in shown])
     nearer_backward, at_half = 0, 0
-    for r, f, b in zip(fin.results, one.poses, backward.poses):
-        m, fp, bp = r.pose.points, f.points, b.points
+    for m_pose, f, b in zip(merged, one.poses, backward.poses):
+        m, fp, bp = m_pose.points, f.points, b.points
         if not np.all(np.isfinite(m)):
             continue
         if np.array_equal(m, fp) or np.array_equal(m, bp):
@@ -369,7 +376,7 @@ def test_two_passes_merge_the_forward_pass_with_a_backward_one(short_session: Pa
     from walker_gait.core.smoothing import check_against_passes
 
     floors = [r.floor for r in fin.results]
-    plain = run_analyzer([r.pose for r in fin.results], floors)
+    plain = run_analyzer(merged, floors)
     alone = [run_analyzer(p.poses, floors) for p in fin.passes]
     want_ev, want_st = check_against_passes(plain.events, plain.steps, [(a.events, a.steps) for a in alone])
     got = [s for r in fin.results for s in r.steps] + fin.steps
@@ -389,6 +396,9 @@ def test_passes_must_be_known() -> None:
 
     with pytest.raises(ParameterError, match="passes"):
         PipelineOptions(passes="backward")
+    for bad in (-0.5, float("nan"), float("inf")):
+        with pytest.raises(ParameterError, match="bridge_hidden_s"):
+            PipelineOptions(bridge_hidden_s=bad)
 
 
 def _frames_of(session: Any) -> list[Any]:

@@ -217,7 +217,8 @@ def cmd_process(args: argparse.Namespace) -> int:
     file_params, overrides = _pipeline_params(args)
     options = PipelineOptions.from_params(file_params, overrides, preset=args.preset, seed=args.seed,
                                           depth_topic=args.depth_topic, info_topic=args.info_topic,
-                                          camera_info_file=args.camera_info, passes=args.passes)
+                                          camera_info_file=args.camera_info, passes=args.passes,
+                                          bridge_hidden_s=args.bridge_hidden_s)
     result = process_recording(path, Path(args.out), options=options, progress=not args.quiet)
     if not args.quiet:
         print(result.describe())
@@ -229,7 +230,7 @@ def cmd_batch(args: argparse.Namespace) -> int:
 
     file_params, overrides = _pipeline_params(args)
     options = PipelineOptions.from_params(file_params, overrides, preset=args.preset, seed=args.seed,
-                                          passes=args.passes)
+                                          passes=args.passes, bridge_hidden_s=args.bridge_hidden_s)
     table = process_batch(Path(args.folder), Path(args.out), options=options, workers=args.workers,
                           progress=not args.quiet)
     print(f"summary table: {table}")
@@ -308,6 +309,11 @@ def build_parser() -> argparse.ArgumentParser:
                        help="both (default): track the recording forwards and backwards in time and keep, frame by "
                        "frame, the estimate the depth data support better (about twice the tracking time); "
                        "forward: one pass, as the live graph tracks")
+        p.add_argument("--bridge-hidden-s", type=float, default=1.0, metavar="S",
+                       help="with --passes both: where a foot was hidden behind the other leg for up to S seconds, "
+                       "report its knee, ankle, heel and toe on a curve between where it was last seen and where it "
+                       "is seen again instead of the tracker's held pose (default 1.0; 0 = off; the gait analysis "
+                       "reads the tracked poses either way)")
         p.add_argument("--quiet", action="store_true", help="no progress bar")
 
     p = sub.add_parser("demo", help="generate a sample walking session, process it, compare with ground truth")

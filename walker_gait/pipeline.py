@@ -61,6 +61,7 @@ class PipelineOptions:
     prefetch: int = 4  # frames decoded + segmented ahead in a forked worker process (0: all in this process)
     passes: str = "both"  # "both": tracked forwards and backwards, merged (core.smoothing); "forward": as the live graph
     store_memory_mb: int = 256  # "both": prepared frames kept in memory up to this size, beyond it in a temporary file
+    bridge_hidden_s: float = 1.0  # "both": a hidden foot's stretch up to this long bridged in the reported poses (core.smoothing.bridge_hidden_legs; 0 = off)
 
     def __post_init__(self) -> None:
         from walker_gait.core.gait import GaitConfig
@@ -70,6 +71,8 @@ class PipelineOptions:
 
         if self.passes not in PASSES:
             raise ParameterError(f"passes must be one of {', '.join(PASSES)}, got {self.passes!r}")
+        if not (math.isfinite(self.bridge_hidden_s) and self.bridge_hidden_s >= 0):
+            raise ParameterError(f"bridge_hidden_s must be a finite number >= 0 (0 = off), got {self.bridge_hidden_s!r}")
 
         if self.segmenter is None:
             self.segmenter = SegmenterConfig()
@@ -482,7 +485,7 @@ class FrameProcessor:
         kept: tuple[PassTrack, ...] = ()
         if self._two_way and self._fwd:
             from walker_gait.core.gait import GaitAnalyzer
-            from walker_gait.core.smoothing import check_against_passes, merge_passes, wait_for_both_feet
+            from walker_gait.core.smoothing import check_against_passes, merge_passes, reported_poses, wait_for_both_feet
 
             fwd, self._fwd = self._fwd, []
             store, self._store = self._store, None
@@ -504,6 +507,10 @@ class FrameProcessor:
             backward = wait_for_both_feet(backward, other=forward)
             merged = merge_passes([forward, backward])
             share, kept = merged.share(1), (forward, backward)
+            # the analyzer reads the merged track as tracked (its confidences know a hidden foot's held pose for what
+            # it is); the poses reported have the hidden feet's stretches bridged
+            shown = reported_poses(merged.poses, hide_below=self.options.tracker.hide_below,
+                                   max_gap_s=self.options.bridge_hidden_s)
             floors = [f[3] for f in fwd]
             # each pass analysed alone (the forward one as it was tracked): the merged track's steps are checked
             # against theirs (check_against_passes)
@@ -516,14 +523,14 @@ class FrameProcessor:
             alone.finish()
             backward_gait_ms = (time.perf_counter() - t0) * 1e3 / n
             per_pass = [(self._fwd_alone.events, self._fwd_alone.steps), (alone.events, alone.steps)]
-            for i, ((_, _, fwd_ms, floor, n_fg), pose) in enumerate(zip(fwd, merged.poses)):
+            for i, ((_, _, fwd_ms, floor, n_fg), pose, pose_shown) in enumerate(zip(fwd, merged.poses, shown)):
                 t0 = time.perf_counter()
                 events, steps = self.analyzer.update(pose, floor)
                 t1 = time.perf_counter()
                 timings = dict(fwd_ms, tracker_backward=float(backward.tracker_ms[i]),
                                pass_scoring=fwd_ms.get("pass_scoring", 0.0) + float(backward.scoring_ms[i]),
                                gait=(t1 - t0) * 1e3 + backward_gait_ms + fwd_ms.get("gait", 0.0))
-                results.append(FrameResult(pose=pose, floor=floor, events=list(events), steps=list(steps),
+                results.append(FrameResult(pose=pose_shown, floor=floor, events=list(events), steps=list(steps),
                                            n_foreground=n_fg, timings_ms=timings))
             last_ev, last_st = self.analyzer.finish()
             raw = [s for r in results for s in r.steps] + list(last_st)

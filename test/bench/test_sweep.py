@@ -244,6 +244,11 @@ def test_reanalyse_runs_the_gait_analyzer_on_the_kept_poses(tmp_path: Path, caps
         return PassTrack(poses=poses, scores=np.full(n, score), tracker_ms=np.zeros(n), scoring_ms=np.zeros(n))
 
     two = replace(run, passes=(shifted(0.0, 0.0), shifted(0.02, 0.0)))
+    # a two-pass run's analyzer reads its passes merged, as the pipeline's did, not its stored poses (the reported
+    # ones, hidden feet bridged)
+    moved = replace(two, poses=[replace(p, points=p.points * [1.0, 1.0, 1.3]) for p in two.poses])  # steps 30 % long
+    assert [(s.stamp, s.step_length) for s in sweep.reanalyse([moved])[0].det] == \
+        [(s.stamp, s.step_length) for s in sweep.reanalyse([two])[0].det]
     near = sweep.reanalyse([two], merge={})[0]
     np.testing.assert_allclose(near.est, pts + [0.01, 0.0, 0.0])
     far = sweep.reanalyse([replace(two, passes=(shifted(0.0, 0.0), shifted(0.3, -1.0)))], merge={})[0]

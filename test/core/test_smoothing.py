@@ -12,15 +12,18 @@ from walker_gait.bench.tracker import KINECT, own_sequence
 from walker_gait.core import leg_model as lm
 from walker_gait.core.smoothing import (
     AGREE_M,
+    BRIDGE_POINTS,
     SWITCH_COST_PER_M,
     PassTrack,
     UNCONFIRMED_FACTOR,
     best_path,
     blend_poses,
+    bridge_hidden_legs,
     check_against_passes,
     confirm_steps,
     merge_passes,
     refine_event_times,
+    reported_poses,
     score_passes,
     track_pass,
     wait_for_both_feet,
@@ -188,6 +191,96 @@ def test_a_track_starts_where_both_feet_have_been_seen() -> None:
     assert wait_for_both_feet(plain) is plain
     with pytest.raises(ValueError, match="frames"):
         wait_for_both_feet(track, other=plain)
+
+
+def _walking(n: int, hidden: dict[int, range], *, dt: float = 1 / 30) -> tuple[list[LegPose], np.ndarray]:
+    """``n`` poses of legs whose points move along smooth curves (the truth, ``(n, 2, 5, 3)``), and whose reported
+    points are held at the last seen frame's wherever ``hidden[leg]`` says the foot is hidden (as the tracker holds
+    a hidden leg's pose).  Segments follow the points (thigh hip-knee, calf knee-ankle, foot heel-toe)."""
+    t = np.arange(n) * dt
+    truth = np.zeros((n, 2, 5, 3))
+    for leg in (0, 1):
+        for j in range(5):
+            truth[:, leg, j, 0] = 0.1 * leg + 0.02 * j + 0.3 * np.sin(2.0 * t + leg)  # smooth, cubic-ish over a gap
+            truth[:, leg, j, 1] = 0.5 - 0.1 * j + 0.05 * t
+            truth[:, leg, j, 2] = 1.0 + 0.2 * t * t - 0.1 * leg
+    poses = []
+    held = truth.copy()
+    for i in range(n):
+        vis = np.ones((2, 3))
+        for leg, frames in hidden.items():
+            if i in frames:
+                vis[leg, 1:] = 0.0
+                held[i, leg] = held[i - 1, leg]
+        segs = np.stack([np.stack([held[i, :, 0], held[i, :, 1]], axis=1), np.stack([held[i, :, 1], held[i, :, 2]], axis=1),
+                         np.stack([held[i, :, 3], held[i, :, 4]], axis=1)], axis=1)
+        poses.append(LegPose(stamp=float(t[i]), points=held[i].copy(), segments=segs, visibility=vis,
+                             status=TrackStatus.TRACKING, confidence=0.9))
+    return poses, truth
+
+
+def test_a_hidden_foot_is_bridged_between_where_it_was_last_seen_and_where_it_is_seen_again() -> None:
+    poses, truth = _walking(40, {1: range(15, 27)})
+    before = [p.points.copy() for p in poses]
+    out = bridge_hidden_legs(poses, hide_below=0.25)
+    gap = slice(15, 27)
+    held = np.array([p.points[1, 1:] for p in poses[gap]])
+    bridged = np.array([p.points[1, 1:] for p in out[gap]])
+    err_held = np.abs(held - truth[gap, 1, 1:]).max()
+    err_bridged = np.abs(bridged - truth[gap, 1, 1:]).max()
+    assert err_held > 0.03  # the held pose falls behind the moving leg ...
+    assert err_bridged < 0.1 * err_held  # ... the bridge follows it
+    # the hip is the pelvis's and stays; the other leg, the frames outside the gap and the inputs are untouched
+    assert all(np.array_equal(o.points[1, 0], p.points[1, 0]) for o, p in zip(out, poses))
+    assert all(np.array_equal(o.points[0], p.points[0]) for o, p in zip(out, poses))
+    assert all(o is p for i, (o, p) in enumerate(zip(out, poses)) if not 15 <= i < 27)
+    assert all(np.array_equal(b, p.points) for b, p in zip(before, poses))
+    # segments move with the points; angles, visibility and status stay the tracker's
+    for o in out[gap]:
+        assert np.allclose(o.segments[1, 0, 1], o.points[1, 1]) and np.allclose(o.segments[1, 1, 1], o.points[1, 2])
+        assert np.allclose(o.segments[1, 2], o.points[1, 3:5])
+    assert out[20].visibility is poses[20].visibility and out[20].status == TrackStatus.TRACKING
+    assert BRIDGE_POINTS == (1, 2, 3, 4)
+
+
+def test_a_foot_moving_steadily_is_bridged_exactly() -> None:
+    n, dt = 30, 0.05
+    poses = []
+    for i in range(n):
+        pts = np.zeros((2, 5, 3))
+        pts[:, :, 0] = 0.4 * i * dt  # constant velocity: the Hermite curve with both ends' velocities is the line
+        vis = np.ones((2, 3))
+        if 10 <= i < 16:
+            vis[0, 2] = 0.1  # the foot alone hidden (its calf seen) counts
+            pts[0] = poses[-1].points[0]
+        poses.append(LegPose(stamp=i * dt, points=pts, visibility=vis, status=TrackStatus.TRACKING, confidence=0.9))
+    out = bridge_hidden_legs(poses, hide_below=0.25)
+    for i in range(10, 16):
+        assert np.allclose(out[i].points[0, 1:, 0], 0.4 * i * dt)
+        assert np.allclose(out[i].points[0, 0], poses[i].points[0, 0])  # the hip stays
+    assert out[12].segments is None  # poses without segments keep none
+
+
+@pytest.mark.parametrize("case", ["long", "start", "end", "restart", "never_seen_after", "off"])
+def test_a_gap_is_left_as_tracked_without_both_ends_seen_or_when_too_long(case: str) -> None:
+    hidden = {"long": range(8, 40), "start": range(3, 12), "end": range(50, 57), "restart": range(15, 25),
+              "never_seen_after": range(15, 60), "off": range(15, 25)}[case]
+    poses, _ = _walking(60, {0: hidden})  # 30 frames/s: "long" is 1.07 s, over the 1 s default
+    if case == "restart":  # a track restart (no pose) just after the gap: its far end is another track
+        poses[27] = LegPose.no_user(poses[27].stamp)
+    kw = {"max_gap_s": 0.0} if case == "off" else {}
+    out = bridge_hidden_legs(poses, hide_below=0.25, **kw)
+    assert all(o is p for o, p in zip(out, poses))
+    assert reported_poses(poses, hide_below=0.25, max_gap_s=0.0) == poses
+    with pytest.raises(ValueError, match="fit_frames"):
+        bridge_hidden_legs(poses, hide_below=0.25, fit_frames=0)
+
+
+def test_reported_poses_are_the_bridged_ones() -> None:
+    poses, _ = _walking(40, {0: range(15, 22)})
+    shown = reported_poses(poses, hide_below=0.25)
+    assert [p.points.tolist() for p in shown] == [p.points.tolist() for p in bridge_hidden_legs(poses, hide_below=0.25)]
+    assert not np.array_equal(shown[18].points, poses[18].points)
 
 
 def _step(stamp: float, side: Side, length: float, confidence: float = 1.0) -> Step:

@@ -199,27 +199,38 @@ def run_session(scenario: str, seed: int, *, duration: float, tracker_seeds: tup
 
 
 def reanalyse(runs: list[SessionRun], gait: GaitConfig | None = None, *,
-              merge: dict[str, Any] | None = None, confirm: dict[str, Any] | None = None) -> list[SessionRun]:
+              merge: dict[str, Any] | None = None, confirm: dict[str, Any] | None = None,
+              bridge_hidden_s: float | None = None) -> list[SessionRun]:
     """The runs with their steps found again by a fresh gait analyzer (``GaitConfig`` ``gait``, default: the
-    pipeline's) on their own tracked poses and floors, the input the pipeline gave its analyzer.  ``merge``
-    (keyword arguments of :func:`walker_gait.core.smoothing.merge_passes`): the two-pass runs' forward and backward
-    passes merged again that way first (joint errors and steps then come from the new merge).  Two-pass runs get
-    their steps checked against each pass's own as the pipeline does (:func:`walker_gait.core.smoothing.
-    check_against_passes`; ``confirm``: keyword arguments of its ``confirm_steps``)."""
+    pipeline's) on the tracked poses and floors the pipeline gave its analyzer: a two-pass run's passes merged
+    (:func:`walker_gait.core.smoothing.merge_passes`; its stored poses are the ones reported, hidden feet bridged),
+    a one-pass run's own poses.  ``merge`` (keyword arguments of ``merge_passes``): the two-pass runs' passes merged
+    that way, and their reported poses (joint errors) made again from that merge as the pipeline does
+    (:func:`walker_gait.core.smoothing.reported_poses`, ``bridge_hidden_s`` as ``PipelineOptions``, default its
+    default).  Two-pass runs get their steps checked against each pass's own as the pipeline does
+    (:func:`walker_gait.core.smoothing.check_against_passes`; ``confirm``: keyword arguments of its
+    ``confirm_steps``)."""
     from walker_gait.bench.gait import match_steps, run_analyzer
-    from walker_gait.core.smoothing import check_against_passes, merge_passes
+    from walker_gait.core.smoothing import check_against_passes, merge_passes, reported_poses
+    from walker_gait.core.tracker import preset
+    from walker_gait.pipeline import PipelineOptions
 
+    bridge = PipelineOptions.bridge_hidden_s if bridge_hidden_s is None else bridge_hidden_s
+    hide_below = preset("default").hide_below
     out = []
     for r in runs:
         if len(r.poses) != len(r.stamps) or len(r.floors) != len(r.stamps):
             raise ValueError(f"run {r.key} (tracker seed {r.tracker_seed}) has no tracked poses to re-analyse")
-        if merge is not None:
-            if len(r.passes) < 2:
-                raise ValueError(f"run {r.key} (tracker seed {r.tracker_seed}) kept no tracking passes to merge again "
-                                 "(a one-pass sweep, or one written before the passes were kept)")
-            poses = merge_passes(r.passes, **merge).poses
-            r = replace(r, poses=poses, est=np.stack([p.points for p in poses]))
-        ga = run_analyzer(r.poses, r.floors, config=gait)
+        if merge is not None and len(r.passes) < 2:
+            raise ValueError(f"run {r.key} (tracker seed {r.tracker_seed}) kept no tracking passes to merge again "
+                             "(a one-pass sweep, or one written before the passes were kept)")
+        analysed = r.poses
+        if len(r.passes) >= 2:
+            analysed = merge_passes(r.passes, **(merge or {})).poses
+            if merge is not None:
+                shown = reported_poses(analysed, hide_below=hide_below, max_gap_s=bridge)
+                r = replace(r, poses=shown, est=np.stack([p.points for p in shown]))
+        ga = run_analyzer(analysed, r.floors, config=gait)
         det = ga.steps
         if len(r.passes) >= 2:
             alone = [run_analyzer(p.poses, r.floors, config=gait) for p in r.passes]

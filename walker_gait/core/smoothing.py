@@ -20,6 +20,11 @@ Before the merge the backward pass loses the poses it alone gave before it had s
 (:func:`wait_for_both_feet`): run backwards, a track ends at the user's arrival, where the forward tracker has not
 started yet for want of a second leg in view.
 
+After the merge, the poses reported bridge each stretch in which a foot was hidden behind the other leg
+(:func:`bridge_hidden_legs`, :func:`reported_poses`): the tracker holds a hidden leg's pose, the real foot rolls
+off the floor and swings through; offline, cubic curves in time join where it was last seen to where it is seen
+again.  The gait analyzer reads the merged poses as tracked.
+
 The live graph cannot wait for the future and tracks forwards only; ``walker-gait process`` does both passes
 unless told ``--passes forward``.  Measured on synthetic sessions with ground truth (DEVELOPERS.md, forty-third
 session): heel error and the frames more than 10 cm off fell on every sweep set; see BENCHMARKS.md.
@@ -39,7 +44,7 @@ from typing import Protocol
 import numpy as np
 from numpy.typing import NDArray
 
-from walker_gait.core.types import CameraIntrinsics, EventKind, FloorPlane, GaitEvent, LegPose, Step
+from walker_gait.core.types import ANKLE, HEEL, KNEE, TOE, CameraIntrinsics, EventKind, FloorPlane, GaitEvent, LegPose, Step
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.intp]
@@ -69,6 +74,14 @@ still counts towards the cadence while its length and width stay out of the mean
 START_VISIBILITY = 0.5
 """Visible share of a model foot (the tracker's ``show_above``) from which :func:`wait_for_both_feet` counts it as
 seen."""
+
+BRIDGE_MAX_S = 1.0
+"""Longest gap (s) over which :func:`bridge_hidden_legs` bridges a hidden leg."""
+BRIDGE_FIT_FRAMES = 5
+"""Frames either side of a gap over which :func:`bridge_hidden_legs` takes the points' velocities (each end's
+velocity is the mean over that many frames: one frame's difference carries the tracker's jitter)."""
+BRIDGE_POINTS = (1, 2, 3, 4)
+"""Points a bridge replaces: knee, ankle, heel and toe (the hip is the pelvis's, tracked through any hiding)."""
 
 PASSES = ("forward", "both")
 """``forward``: one pass, as the live graph; ``both``: forwards and backwards, merged (offline default)."""
@@ -310,6 +323,97 @@ def blend_poses(poses: Sequence[LegPose], chosen: int, *, agree_m: tuple[float, 
 
     return dataclasses.replace(base, points=mix("points"), angles=mix("angles"), segments=mix("segments"),
                                radii=mix("radii"), visibility=mix("visibility"))
+
+
+def _feet_hidden(pose: LegPose, hide_below: float) -> NDArray[np.bool_]:
+    """``(2,)``: which of the pose's feet are seen less than ``hide_below`` (their visibility); none without one."""
+    if pose.visibility is None:
+        return np.zeros(2, dtype=bool)
+    return np.asarray(pose.visibility, dtype=np.float64)[:, 2] < hide_below
+
+
+def _with_leg_points(pose: LegPose, leg: int, new: FloatArray) -> LegPose:
+    """``pose`` with leg ``leg``'s ``BRIDGE_POINTS`` at ``new`` and its segments moved with them: the thigh's and the
+    calf's ends at the knee and ankle, the foot's ends by the heel's and the toe's displacement."""
+    idx = np.array(BRIDGE_POINTS)
+    pts = np.array(pose.points, dtype=np.float64, copy=True)
+    moved = np.zeros_like(pts[leg])
+    moved[idx] = new - pts[leg, idx]
+    pts[leg, idx] = new
+    segs = pose.segments
+    if segs is not None and np.shape(segs) == (2, 3, 2, 3):
+        segs = np.array(segs, dtype=np.float64, copy=True)
+        segs[leg, 0, 1] = pts[leg, KNEE]  # thigh: hip -> knee
+        segs[leg, 1, 0], segs[leg, 1, 1] = pts[leg, KNEE], pts[leg, ANKLE]  # calf: knee -> ankle
+        segs[leg, 2, 0] += moved[HEEL]  # foot: heel end, toe end
+        segs[leg, 2, 1] += moved[TOE]
+    return dataclasses.replace(pose, points=pts, segments=segs)
+
+
+def bridge_hidden_legs(poses: Sequence[LegPose], *, hide_below: float, max_gap_s: float = BRIDGE_MAX_S,
+                       fit_frames: int = BRIDGE_FIT_FRAMES) -> list[LegPose]:
+    """``poses`` (a merged track, in recording order) with each stretch in which a foot was hidden bridged.
+
+    A foot seen less than ``hide_below`` (the tracker's ``hide_below``) is out of the tracker's likelihood, which
+    holds its pose; the real foot meanwhile rolls off the floor, which carries it back through the walker frame,
+    and swings through unseen: in the merged track a hidden foot's heel was 12.5 cm off on average, 8 cm ahead of
+    the real one (DEVELOPERS.md, fifty-second session).  Offline both ends of the stretch are known: where the leg
+    was last seen and how it moved then, where it is seen again and how it moves there.  Inside the stretch its
+    knee, ankle, heel and toe (``BRIDGE_POINTS``) follow cubic Hermite curves in time from the last frame before
+    to the first frame after it, each end's velocity the mean over ``fit_frames`` frames outside the stretch: the
+    spline gap fill of marker-based motion capture, with both ends' velocities.  A stretch is bridged only when it
+    lasts at most ``max_gap_s`` and the frames ``fit_frames`` either side of it have the foot seen and finite
+    points (one track, no restart in between).  The leg's segments move with its points (the thigh's and the
+    calf's ends to the knee and ankle, the foot's by the heel's and the toe's displacement); joint angles, radii,
+    visibility, status and confidence stay the tracker's.  ``poses`` is not modified.
+    """
+    if fit_frames < 1:
+        raise ValueError(f"fit_frames must be >= 1, got {fit_frames}")
+    n = len(poses)
+    out = list(poses)
+    if max_gap_s <= 0 or n < 2 * fit_frames + 3:
+        return out
+    ok = np.array([p.points is not None and np.shape(p.points) == (2, 5, 3) and bool(np.all(np.isfinite(p.points)))
+                   for p in poses])
+    hidden = np.array([_feet_hidden(p, hide_below) for p in poses]).reshape(n, 2) & ok[:, None]
+    stamps = np.array([float(p.stamp) for p in poses])
+    idx = np.array(BRIDGE_POINTS)
+    k = fit_frames
+    for leg in (0, 1):
+        seen = ok & ~hidden[:, leg]
+        t = 1
+        while t < n:
+            if not (hidden[t, leg] and seen[t - 1]):
+                t += 1
+                continue
+            a = t
+            while t < n and hidden[t, leg]:
+                t += 1
+            lo, hi = a - 1, t  # the last frame seen before the stretch, the first one after it
+            if lo - k < 0 or hi + k >= n or not (seen[lo - k:lo + 1].all() and seen[hi:hi + k + 1].all()):
+                continue
+            span = stamps[hi] - stamps[lo]
+            dt0, dt1 = stamps[lo] - stamps[lo - k], stamps[hi + k] - stamps[hi]
+            if not (0.0 < span <= max_gap_s and dt0 > 0.0 and dt1 > 0.0):
+                continue
+            p0, p1 = poses[lo].points[leg, idx], poses[hi].points[leg, idx]
+            m0 = span * (p0 - poses[lo - k].points[leg, idx]) / dt0  # end tangents, scaled to the stretch
+            m1 = span * (poses[hi + k].points[leg, idx] - p1) / dt1
+            for i in range(a, hi):
+                u = (stamps[i] - stamps[lo]) / span
+                h00, h10 = 2 * u**3 - 3 * u**2 + 1, u**3 - 2 * u**2 + u
+                h01, h11 = -2 * u**3 + 3 * u**2, u**3 - u**2
+                out[i] = _with_leg_points(out[i], leg, h00 * p0 + h10 * m0 + h01 * p1 + h11 * m1)
+    return out
+
+
+def reported_poses(poses: Sequence[LegPose], *, hide_below: float, max_gap_s: float = BRIDGE_MAX_S) -> list[LegPose]:
+    """The poses an offline run reports for its merged track ``poses``: hidden feet bridged over stretches up to
+    ``max_gap_s`` long (:func:`bridge_hidden_legs`; 0: the merged poses as they are).  The gait analyzer reads the
+    merged poses themselves."""
+    if max_gap_s <= 0:
+        return list(poses)
+    return bridge_hidden_legs(poses, hide_below=hide_below, max_gap_s=max_gap_s)
 
 
 def confirm_steps(steps: Sequence[Step], per_pass: Sequence[Sequence[Step]], *, within_s: float = CONFIRM_S,
