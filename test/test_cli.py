@@ -52,6 +52,13 @@ def test_passes_choose_one_or_two_tracking_passes(real_bag: Path, tmp_path: Path
     assert "tracked forwards (one pass)" in one.stdout and "tracked forwards and backwards" in two.stdout
     bad = walker_gait("process", str(real_bag), "--out", str(tmp_path / "bad"), "--passes", "backward")
     assert bad.returncode == 2 and "--passes" in bad.stderr
+    # the reported poses' bridge and low-pass take a number >= 0; anything else is refused, naming it
+    for flag, name in (("--bridge-hidden-s", "bridge_hidden_s"), ("--report-lowpass-hz", "report_lowpass_hz")):
+        bad = walker_gait("process", str(real_bag), "--out", str(tmp_path / "bad"), flag, "-1")
+        assert bad.returncode == 2 and name in bad.stderr, bad.stderr
+    off = walker_gait("process", str(real_bag), "--out", str(tmp_path / "off"), "--bridge-hidden-s", "0",
+                      "--report-lowpass-hz", "0")
+    assert off.returncode == 0, off.stderr
 
 
 def test_tracked_mcap_reads_back_with_rosbags(real_bag: Path, tmp_path: Path) -> None:

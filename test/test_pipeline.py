@@ -345,12 +345,15 @@ def test_two_passes_merge_the_forward_pass_with_a_backward_one(short_session: Pa
     backward = wait_for_both_feet(prep.backward(frames), other=fin.passes[0])
     np.testing.assert_array_equal([p.points for p in fin.passes[1].poses], [p.points for p in backward.poses])
     np.testing.assert_array_equal([r.pose.points for r in fin.results], [p.points for p in two.poses])
-    # the poses reported are the merged ones with hidden feet bridged (core.smoothing.reported_poses); the analyzer
-    # reads the merged ones
+    # the poses reported are the merged ones with hidden feet bridged and low-passed (core.smoothing.reported_poses);
+    # the analyzer reads the merged ones
     from walker_gait.core.smoothing import merge_passes, reported_poses
 
     merged = merge_passes(list(fin.passes)).poses
-    shown = reported_poses(merged, hide_below=proc.options.tracker.hide_below, max_gap_s=proc.options.bridge_hidden_s)
+    shown = reported_poses(merged, hide_below=proc.options.tracker.hide_below, max_gap_s=proc.options.bridge_hidden_s,
+                           lowpass_hz=proc.options.report_lowpass_hz)
+    assert proc.options.report_lowpass_hz > 0 and not np.allclose([p.points for p in shown], [p.points for p in merged],
+                                                                   equal_nan=True)
     np.testing.assert_array_equal([r.pose.points for r in fin.results], [p.points for p in shown])
     nearer_backward, at_half = 0, 0
     for m_pose, f, b in zip(merged, one.poses, backward.poses):
@@ -396,9 +399,10 @@ def test_passes_must_be_known() -> None:
 
     with pytest.raises(ParameterError, match="passes"):
         PipelineOptions(passes="backward")
-    for bad in (-0.5, float("nan"), float("inf")):
-        with pytest.raises(ParameterError, match="bridge_hidden_s"):
-            PipelineOptions(bridge_hidden_s=bad)
+    for name in ("bridge_hidden_s", "report_lowpass_hz"):
+        for bad in (-0.5, float("nan"), float("inf"), "6"):
+            with pytest.raises(ParameterError, match=name):
+                PipelineOptions(**{name: bad})
 
 
 def _frames_of(session: Any) -> list[Any]:

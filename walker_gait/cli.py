@@ -218,7 +218,8 @@ def cmd_process(args: argparse.Namespace) -> int:
     options = PipelineOptions.from_params(file_params, overrides, preset=args.preset, seed=args.seed,
                                           depth_topic=args.depth_topic, info_topic=args.info_topic,
                                           camera_info_file=args.camera_info, passes=args.passes,
-                                          bridge_hidden_s=args.bridge_hidden_s)
+                                          bridge_hidden_s=args.bridge_hidden_s,
+                                          report_lowpass_hz=args.report_lowpass_hz)
     result = process_recording(path, Path(args.out), options=options, progress=not args.quiet)
     if not args.quiet:
         print(result.describe())
@@ -230,7 +231,8 @@ def cmd_batch(args: argparse.Namespace) -> int:
 
     file_params, overrides = _pipeline_params(args)
     options = PipelineOptions.from_params(file_params, overrides, preset=args.preset, seed=args.seed,
-                                          passes=args.passes, bridge_hidden_s=args.bridge_hidden_s)
+                                          passes=args.passes, bridge_hidden_s=args.bridge_hidden_s,
+                                          report_lowpass_hz=args.report_lowpass_hz)
     table = process_batch(Path(args.folder), Path(args.out), options=options, workers=args.workers,
                           progress=not args.quiet)
     print(f"summary table: {table}")
@@ -313,6 +315,10 @@ def build_parser() -> argparse.ArgumentParser:
                        help="with --passes both: where a foot was hidden behind the other leg for up to S seconds, "
                        "report its knee, ankle, heel and toe on a curve between where it was last seen and where it "
                        "is seen again instead of the tracker's held pose (default 1.0; 0 = off; the gait analysis "
+                       "reads the tracked poses either way)")
+        p.add_argument("--report-lowpass-hz", type=float, default=6.0, metavar="HZ",
+                       help="with --passes both: low-pass the reported leg points and joint angles at HZ (zero-phase "
+                       "Butterworth, as gait labs filter marker trajectories; default 6; 0 = off; the gait analysis "
                        "reads the tracked poses either way)")
         p.add_argument("--quiet", action="store_true", help="no progress bar")
 

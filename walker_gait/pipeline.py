@@ -62,6 +62,7 @@ class PipelineOptions:
     passes: str = "both"  # "both": tracked forwards and backwards, merged (core.smoothing); "forward": as the live graph
     store_memory_mb: int = 256  # "both": prepared frames kept in memory up to this size, beyond it in a temporary file
     bridge_hidden_s: float = 1.0  # "both": a hidden foot's stretch up to this long bridged in the reported poses (core.smoothing.bridge_hidden_legs; 0 = off)
+    report_lowpass_hz: float = 6.0  # "both": the reported points and angles low-passed at this cut-off (core.smoothing.lowpass_poses; 0 = off)
 
     def __post_init__(self) -> None:
         from walker_gait.core.gait import GaitConfig
@@ -71,8 +72,10 @@ class PipelineOptions:
 
         if self.passes not in PASSES:
             raise ParameterError(f"passes must be one of {', '.join(PASSES)}, got {self.passes!r}")
-        if not (math.isfinite(self.bridge_hidden_s) and self.bridge_hidden_s >= 0):
-            raise ParameterError(f"bridge_hidden_s must be a finite number >= 0 (0 = off), got {self.bridge_hidden_s!r}")
+        for name in ("bridge_hidden_s", "report_lowpass_hz"):
+            value = getattr(self, name)
+            if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0):
+                raise ParameterError(f"{name} must be a finite number >= 0 (0 = off), got {value!r}")
 
         if self.segmenter is None:
             self.segmenter = SegmenterConfig()
@@ -508,9 +511,9 @@ class FrameProcessor:
             merged = merge_passes([forward, backward])
             share, kept = merged.share(1), (forward, backward)
             # the analyzer reads the merged track as tracked (its confidences know a hidden foot's held pose for what
-            # it is); the poses reported have the hidden feet's stretches bridged
+            # it is); the poses reported have the hidden feet's stretches bridged and are low-passed
             shown = reported_poses(merged.poses, hide_below=self.options.tracker.hide_below,
-                                   max_gap_s=self.options.bridge_hidden_s)
+                                   max_gap_s=self.options.bridge_hidden_s, lowpass_hz=self.options.report_lowpass_hz)
             floors = [f[3] for f in fwd]
             # each pass analysed alone (the forward one as it was tracked): the merged track's steps are checked
             # against theirs (check_against_passes)

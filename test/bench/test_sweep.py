@@ -249,10 +249,17 @@ def test_reanalyse_runs_the_gait_analyzer_on_the_kept_poses(tmp_path: Path, caps
     moved = replace(two, poses=[replace(p, points=p.points * [1.0, 1.0, 1.3]) for p in two.poses])  # steps 30 % long
     assert [(s.stamp, s.step_length) for s in sweep.reanalyse([moved])[0].det] == \
         [(s.stamp, s.step_length) for s in sweep.reanalyse([two])[0].det]
-    near = sweep.reanalyse([two], merge={})[0]
+    near = sweep.reanalyse([two], merge={}, report_lowpass_hz=0.0)[0]
     np.testing.assert_allclose(near.est, pts + [0.01, 0.0, 0.0])
-    far = sweep.reanalyse([replace(two, passes=(shifted(0.0, 0.0), shifted(0.3, -1.0)))], merge={})[0]
+    far = sweep.reanalyse([replace(two, passes=(shifted(0.0, 0.0), shifted(0.3, -1.0)))], merge={},
+                          report_lowpass_hz=0.0)[0]
     np.testing.assert_allclose(far.est, pts)
+    # by default the re-merged run's reported poses are low-passed as the pipeline's are
+    from walker_gait.core.smoothing import reported_poses
+
+    lowpassed = np.stack([p.points for p in reported_poses(shifted(0.01, 0.0).poses, hide_below=0.25)])
+    np.testing.assert_allclose(sweep.reanalyse([two], merge={})[0].est, lowpassed)
+    assert not np.allclose(lowpassed, pts + [0.01, 0.0, 0.0])
     assert len(far.pairs) == len(sim.steps)
     with pytest.raises(ValueError, match="no tracking passes"):
         sweep.reanalyse([run], merge={})
@@ -262,7 +269,8 @@ def test_reanalyse_runs_the_gait_analyzer_on_the_kept_poses(tmp_path: Path, caps
                        '{"agree_m": [0.0, 0.001]}']) == 0
     summary = json.loads((tmp_path / "m" / "summary.json").read_text())
     assert summary["config"]["merge_override"] == {"agree_m": [0.0, 0.001]}
-    np.testing.assert_allclose(sweep.load_runs(tmp_path / "m" / "runs.pkl")[0].est, pts)  # nothing blended
+    np.testing.assert_allclose(sweep.load_runs(tmp_path / "m" / "runs.pkl")[0].est,  # nothing blended
+                               np.stack([p.points for p in reported_poses(sim.poses, hide_below=0.25)]))
     capsys.readouterr()
     assert sweep.main(["--reanalyse", str(tmp_path / "two"), "--out", str(tmp_path / "x"), "--merge-override",
                        '{"bogus": 1}']) == 2

@@ -19,6 +19,7 @@ from walker_gait.core.smoothing import (
     best_path,
     blend_poses,
     bridge_hidden_legs,
+    lowpass_poses,
     check_against_passes,
     confirm_steps,
     merge_passes,
@@ -271,16 +272,78 @@ def test_a_gap_is_left_as_tracked_without_both_ends_seen_or_when_too_long(case: 
     kw = {"max_gap_s": 0.0} if case == "off" else {}
     out = bridge_hidden_legs(poses, hide_below=0.25, **kw)
     assert all(o is p for o, p in zip(out, poses))
-    assert reported_poses(poses, hide_below=0.25, max_gap_s=0.0) == poses
+    assert reported_poses(poses, hide_below=0.25, max_gap_s=0.0, lowpass_hz=0.0) == poses
     with pytest.raises(ValueError, match="fit_frames"):
         bridge_hidden_legs(poses, hide_below=0.25, fit_frames=0)
 
 
-def test_reported_poses_are_the_bridged_ones() -> None:
+def test_reported_poses_are_bridged_then_low_passed() -> None:
     poses, _ = _walking(40, {0: range(15, 22)})
     shown = reported_poses(poses, hide_below=0.25)
-    assert [p.points.tolist() for p in shown] == [p.points.tolist() for p in bridge_hidden_legs(poses, hide_below=0.25)]
+    want = lowpass_poses(bridge_hidden_legs(poses, hide_below=0.25))
+    assert [p.points.tolist() for p in shown] == [p.points.tolist() for p in want]
     assert not np.array_equal(shown[18].points, poses[18].points)
+    bridged_only = reported_poses(poses, hide_below=0.25, lowpass_hz=0.0)
+    assert [p.points.tolist() for p in bridged_only] == \
+        [p.points.tolist() for p in bridge_hidden_legs(poses, hide_below=0.25)]
+    assert reported_poses(poses, hide_below=0.25, max_gap_s=0.0, lowpass_hz=0.0) == poses
+
+
+def _noisy_track(n: int, *, fps: float = 30.0, seed: int = 0) -> tuple[list[LegPose], np.ndarray, np.ndarray]:
+    """A leg swinging at gait frequencies (1 Hz and its harmonics) with 1 cm of white noise on every point and
+    0.05 rad on every angle: (poses, true points, true angles)."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(n) / fps
+    truth = np.zeros((n, 2, 5, 3))
+    truth[..., 2] = 1.0 + 0.2 * np.sin(2 * np.pi * t)[:, None, None] + 0.05 * np.sin(6 * np.pi * t)[:, None, None]
+    truth[..., 0] = np.arange(5)[None, None, :] * 0.1
+    angles = 0.4 * np.sin(2 * np.pi * t)[:, None] * np.ones((1, 12))
+    poses = []
+    for i in range(n):
+        pts = truth[i] + 0.01 * rng.standard_normal((2, 5, 3))
+        segs = np.stack([np.stack([pts[:, 0], pts[:, 1]], axis=1), np.stack([pts[:, 1], pts[:, 2]], axis=1),
+                         np.stack([pts[:, 3], pts[:, 4]], axis=1)], axis=1)
+        poses.append(LegPose(stamp=float(t[i]), points=pts, angles=angles[i] + 0.05 * rng.standard_normal(12),
+                             segments=segs, visibility=np.ones((2, 3)), status=TrackStatus.TRACKING, confidence=0.9))
+    return poses, truth, angles
+
+
+def test_a_low_pass_takes_the_jitter_off_a_walking_leg_and_keeps_its_motion() -> None:
+    poses, truth, angles = _noisy_track(90)
+    out = lowpass_poses(poses)
+    raw_err = np.sqrt(np.mean((np.stack([p.points for p in poses]) - truth) ** 2))
+    err = np.sqrt(np.mean((np.stack([p.points for p in out]) - truth) ** 2))
+    assert err < 0.7 * raw_err  # white noise up to 15 Hz, kept below 6 Hz: ~0.63 of its RMS; the motion kept
+    ang_err = np.sqrt(np.mean((np.stack([p.angles for p in out]) - angles) ** 2))
+    assert ang_err < 0.7 * np.sqrt(np.mean((np.stack([p.angles for p in poses]) - angles) ** 2))
+    # no lag: the filtered heel's height fits the true one best unshifted
+    z, zt = np.stack([p.points for p in out])[10:80, 0, 3, 2], truth[:, 0, 3, 2]
+    fits = {lag: float(np.mean((z - zt[10 + lag:80 + lag]) ** 2)) for lag in (-2, -1, 0, 1, 2)}
+    assert min(fits, key=fits.__getitem__) == 0
+    # segments follow the points; the rest stays; the input is not modified
+    assert np.allclose(out[20].segments[1, 1, 1], out[20].points[1, 2])
+    assert out[20].visibility is poses[20].visibility and out[20].confidence == poses[20].confidence
+    assert not np.array_equal(out[20].points, poses[20].points)
+    assert np.array_equal(poses[20].points, _noisy_track(90)[0][20].points)
+
+
+def test_a_low_pass_stays_inside_each_stretch_of_tracked_frames() -> None:
+    poses, _, _ = _noisy_track(60)
+    poses[30] = LegPose.no_user(poses[30].stamp)  # a track ends and another starts
+    poses[31] = replace(poses[31], status=TrackStatus.SEARCHING)
+    out = lowpass_poses(poses)
+    assert out[30] is poses[30] and out[31] is poses[31]
+    # the first stretch is filtered as it would be alone: nothing from after the break leaks in
+    alone = lowpass_poses(poses[:30])
+    assert all(np.allclose(a.points, b.points) for a, b in zip(alone, out[:30]))
+    # a stretch shorter than the filter needs, frames too sparse for the cut-off, or the filter off: as they are
+    short = lowpass_poses(poses[:8])
+    assert all(a is b for a, b in zip(short, poses[:8]))
+    slow, _, _ = _noisy_track(40, fps=12.0)
+    assert all(a is b for a, b in zip(lowpass_poses(slow), slow))
+    assert all(a is b for a, b in zip(lowpass_poses(poses, cutoff_hz=0.0), poses))
+    with pytest.raises(ValueError, match="order"):
+        lowpass_poses(poses, order=0)
 
 
 def _step(stamp: float, side: Side, length: float, confidence: float = 1.0) -> Step:

@@ -200,14 +200,14 @@ def run_session(scenario: str, seed: int, *, duration: float, tracker_seeds: tup
 
 def reanalyse(runs: list[SessionRun], gait: GaitConfig | None = None, *,
               merge: dict[str, Any] | None = None, confirm: dict[str, Any] | None = None,
-              bridge_hidden_s: float | None = None) -> list[SessionRun]:
+              bridge_hidden_s: float | None = None, report_lowpass_hz: float | None = None) -> list[SessionRun]:
     """The runs with their steps found again by a fresh gait analyzer (``GaitConfig`` ``gait``, default: the
     pipeline's) on the tracked poses and floors the pipeline gave its analyzer: a two-pass run's passes merged
     (:func:`walker_gait.core.smoothing.merge_passes`; its stored poses are the ones reported, hidden feet bridged),
     a one-pass run's own poses.  ``merge`` (keyword arguments of ``merge_passes``): the two-pass runs' passes merged
     that way, and their reported poses (joint errors) made again from that merge as the pipeline does
-    (:func:`walker_gait.core.smoothing.reported_poses`, ``bridge_hidden_s`` as ``PipelineOptions``, default its
-    default).  Two-pass runs get their steps checked against each pass's own as the pipeline does
+    (:func:`walker_gait.core.smoothing.reported_poses`, ``bridge_hidden_s`` and ``report_lowpass_hz`` as
+    ``PipelineOptions``, default its defaults).  Two-pass runs get their steps checked against each pass's own as the pipeline does
     (:func:`walker_gait.core.smoothing.check_against_passes`; ``confirm``: keyword arguments of its
     ``confirm_steps``)."""
     from walker_gait.bench.gait import match_steps, run_analyzer
@@ -216,6 +216,7 @@ def reanalyse(runs: list[SessionRun], gait: GaitConfig | None = None, *,
     from walker_gait.pipeline import PipelineOptions
 
     bridge = PipelineOptions.bridge_hidden_s if bridge_hidden_s is None else bridge_hidden_s
+    lowpass = PipelineOptions.report_lowpass_hz if report_lowpass_hz is None else report_lowpass_hz
     hide_below = preset("default").hide_below
     out = []
     for r in runs:
@@ -228,7 +229,7 @@ def reanalyse(runs: list[SessionRun], gait: GaitConfig | None = None, *,
         if len(r.passes) >= 2:
             analysed = merge_passes(r.passes, **(merge or {})).poses
             if merge is not None:
-                shown = reported_poses(analysed, hide_below=hide_below, max_gap_s=bridge)
+                shown = reported_poses(analysed, hide_below=hide_below, max_gap_s=bridge, lowpass_hz=lowpass)
                 r = replace(r, poses=shown, est=np.stack([p.points for p in shown]))
         ga = run_analyzer(analysed, r.floors, config=gait)
         det = ga.steps
