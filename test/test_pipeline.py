@@ -345,13 +345,13 @@ def test_two_passes_merge_the_forward_pass_with_a_backward_one(short_session: Pa
     backward = wait_for_both_feet(prep.backward(frames), other=fin.passes[0])
     np.testing.assert_array_equal([p.points for p in fin.passes[1].poses], [p.points for p in backward.poses])
     np.testing.assert_array_equal([r.pose.points for r in fin.results], [p.points for p in two.poses])
-    # the poses reported are the merged ones with hidden feet bridged and low-passed (core.smoothing.reported_poses);
-    # the analyzer reads the merged ones
+    # the poses reported are the merged ones with hidden feet bridged and low-passed in each frame's walker frame
+    # (core.smoothing.reported_poses); the analyzer reads the merged ones
     from walker_gait.core.smoothing import merge_passes, reported_poses
 
     merged = merge_passes(list(fin.passes)).poses
     shown = reported_poses(merged, hide_below=proc.options.tracker.hide_below, max_gap_s=proc.options.bridge_hidden_s,
-                           lowpass_hz=proc.options.report_lowpass_hz)
+                           lowpass_hz=proc.options.report_lowpass_hz, floors=[r.floor for r in fin.results])
     assert proc.options.report_lowpass_hz > 0 and not np.allclose([p.points for p in shown], [p.points for p in merged],
                                                                    equal_nan=True)
     np.testing.assert_array_equal([r.pose.points for r in fin.results], [p.points for p in shown])

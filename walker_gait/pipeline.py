@@ -512,9 +512,10 @@ class FrameProcessor:
             share, kept = merged.share(1), (forward, backward)
             # the analyzer reads the merged track as tracked (its confidences know a hidden foot's held pose for what
             # it is); the poses reported have the hidden feet's stretches bridged and are low-passed
-            shown = reported_poses(merged.poses, hide_below=self.options.tracker.hide_below,
-                                   max_gap_s=self.options.bridge_hidden_s, lowpass_hz=self.options.report_lowpass_hz)
             floors = [f[3] for f in fwd]
+            shown = reported_poses(merged.poses, hide_below=self.options.tracker.hide_below,
+                                   max_gap_s=self.options.bridge_hidden_s, lowpass_hz=self.options.report_lowpass_hz,
+                                   floors=floors)
             # each pass analysed alone (the forward one as it was tracked): the merged track's steps are checked
             # against theirs (check_against_passes)
             assert self._fwd_alone is not None

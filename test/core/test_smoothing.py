@@ -327,6 +327,35 @@ def test_a_low_pass_takes_the_jitter_off_a_walking_leg_and_keeps_its_motion() ->
     assert np.array_equal(poses[20].points, _noisy_track(90)[0][20].points)
 
 
+def test_reported_poses_are_filtered_in_the_walker_frame_of_a_rocking_camera() -> None:
+    """A walker rocking on its wheels (1 deg of pitch at 8 Hz) shakes its camera, so a still leg moves in the camera
+    frame: filtered there, the leg's reported points would lose the shake that is really in the camera frame's view;
+    filtered in each frame's walker frame they are the tracker's.  A frame without a valid floor is reported as it
+    came."""
+    n, fps = 60, 30.0
+    still = np.zeros((2, 5, 3))
+    still[..., 0] = np.linspace(0.6, 0.9, 5)[None, :]  # in front of the walker ...
+    still[..., 2] = np.linspace(0.8, 0.0, 5)[None, :]  # ... from hip height to the floor
+    poses, floors = [], []
+    for i in range(n):
+        floor = FloorPlane.from_camera_pose(height=0.5, pitch=np.radians(30.0 + np.sin(2 * np.pi * 8.0 * i / fps)))
+        rot, t = floor.walker_transform()
+        pts = (still - t) @ rot  # camera frame: rot.T @ (p - t)
+        poses.append(LegPose(stamp=i / fps, points=pts, visibility=np.ones((2, 3)), status=TrackStatus.TRACKING,
+                             confidence=0.9))
+        floors.append(floor)
+    walker = reported_poses(poses, hide_below=0.25, floors=floors)
+    camera = reported_poses(poses, hide_below=0.25)
+    err_walker = max(float(np.abs(a.points - b.points).max()) for a, b in zip(walker, poses))
+    err_camera = max(float(np.abs(a.points - b.points).max()) for a, b in zip(camera, poses))
+    assert err_walker < 1e-9 < 0.005 < err_camera
+    floors[30] = replace(floors[30], valid=False)
+    out = reported_poses(poses, hide_below=0.25, floors=floors)
+    assert out[30] is poses[30]
+    with pytest.raises(ValueError, match="floors"):
+        reported_poses(poses, hide_below=0.25, floors=floors[:10])
+
+
 def test_a_low_pass_stays_inside_each_stretch_of_tracked_frames() -> None:
     poses, _, _ = _noisy_track(60)
     poses[30] = LegPose.no_user(poses[30].stamp)  # a track ends and another starts

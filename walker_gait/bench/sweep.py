@@ -229,7 +229,8 @@ def reanalyse(runs: list[SessionRun], gait: GaitConfig | None = None, *,
         if len(r.passes) >= 2:
             analysed = merge_passes(r.passes, **(merge or {})).poses
             if merge is not None:
-                shown = reported_poses(analysed, hide_below=hide_below, max_gap_s=bridge, lowpass_hz=lowpass)
+                shown = reported_poses(analysed, hide_below=hide_below, max_gap_s=bridge, lowpass_hz=lowpass,
+                                       floors=r.floors)
                 r = replace(r, poses=shown, est=np.stack([p.points for p in shown]))
         ga = run_analyzer(analysed, r.floors, config=gait)
         det = ga.steps

@@ -491,17 +491,49 @@ def lowpass_poses(poses: Sequence[LegPose], *, cutoff_hz: float = LOWPASS_HZ,
     return out
 
 
+def _moved(pose: LegPose, rot: FloatArray, t: FloatArray) -> LegPose:
+    """``pose`` with its points and segments mapped by ``p -> rot @ p + t``."""
+    segs = None if pose.segments is None else np.asarray(pose.segments, dtype=np.float64) @ rot.T + t
+    return dataclasses.replace(pose, points=np.asarray(pose.points, dtype=np.float64) @ rot.T + t, segments=segs)
+
+
 def reported_poses(poses: Sequence[LegPose], *, hide_below: float, max_gap_s: float = BRIDGE_MAX_S,
-                   lowpass_hz: float = LOWPASS_HZ) -> list[LegPose]:
+                   lowpass_hz: float = LOWPASS_HZ, floors: Sequence[FloorPlane] | None = None) -> list[LegPose]:
     """The poses an offline run reports for its merged track ``poses``: hidden feet bridged over stretches up to
     ``max_gap_s`` long (:func:`bridge_hidden_legs`; 0: not bridged), then points and angles low-passed at
-    ``lowpass_hz`` (:func:`lowpass_poses`; 0: not filtered).  The gait analyzer reads the merged poses themselves."""
+    ``lowpass_hz`` (:func:`lowpass_poses`; 0: not filtered).  With ``floors`` (one per pose) both work in each
+    frame's walker frame (:meth:`FloorPlane.walker_transform`), which stays with the walker while its camera rocks
+    on the wheels: in the camera frame that rocking is motion of the legs a low-pass would take out; frames without
+    a valid floor are reported as tracked.  The gait analyzer reads the merged poses themselves."""
     out = list(poses)
+    if max_gap_s <= 0 and lowpass_hz <= 0:
+        return out
+    frames: list[tuple[FloatArray, FloatArray] | None] = [None] * len(out)
+    if floors is not None:
+        if len(floors) != len(out):
+            raise ValueError(f"{len(floors)} floors for {len(out)} poses")
+        for i, (pose, floor) in enumerate(zip(out, floors)):
+            if floor.valid and np.all(np.isfinite(floor.normal)) and math.isfinite(floor.offset):
+                frames[i] = floor.walker_transform()
+                out[i] = _moved(pose, *frames[i])
+            else:  # no walker frame to work in: left out of both, reported as tracked
+                out[i] = LegPose.no_user(pose.stamp)
     if max_gap_s > 0:
         out = bridge_hidden_legs(out, hide_below=hide_below, max_gap_s=max_gap_s)
     if lowpass_hz > 0:
         out = lowpass_poses(out, cutoff_hz=lowpass_hz)
-    return out
+    if floors is None:
+        return out
+    shown = []
+    for pose, done, wt in zip(poses, out, frames):
+        if wt is None:
+            shown.append(pose)
+        elif done is None or np.array_equal(done.points, _moved(pose, *wt).points):
+            shown.append(pose)  # untouched: the tracker's own pose, bit for bit
+        else:
+            rot, t = wt
+            shown.append(_moved(done, rot.T, -(rot.T @ t)))
+    return shown
 
 
 def confirm_steps(steps: Sequence[Step], per_pass: Sequence[Sequence[Step]], *, within_s: float = CONFIRM_S,
