@@ -19,6 +19,8 @@ from walker_gait.core.smoothing import (
     best_path,
     blend_poses,
     bridge_hidden_legs,
+    butter2,
+    filtfilt2,
     lowpass_poses,
     check_against_passes,
     confirm_steps,
@@ -372,7 +374,25 @@ def test_a_low_pass_stays_inside_each_stretch_of_tracked_frames() -> None:
     assert all(a is b for a, b in zip(lowpass_poses(slow), slow))
     assert all(a is b for a, b in zip(lowpass_poses(poses, cutoff_hz=0.0), poses))
     with pytest.raises(ValueError, match="order"):
-        lowpass_poses(poses, order=0)
+        lowpass_poses(poses, order=4)
+
+
+@pytest.mark.parametrize(("cutoff", "fs"), [(6.0, 30.0), (6.0, 15.0), (3.0, 100.0)])
+def test_the_butterworth_filter_is_scipys(cutoff: float, fs: float) -> None:
+    """butter2 / filtfilt2 give what scipy.signal.butter(2, ...) / filtfilt(..., axis=0) give (kept apart from
+    scipy.signal only for its half-second import)."""
+    from scipy.signal import butter, filtfilt
+
+    b, a = butter(2, cutoff / (0.5 * fs))
+    b2, a2 = butter2(cutoff, fs)
+    np.testing.assert_allclose(b2, b, atol=1e-15)
+    np.testing.assert_allclose(a2, a, atol=1e-15)
+    x = np.random.default_rng(0).standard_normal((40, 2, 5, 3)).cumsum(axis=0)
+    np.testing.assert_allclose(filtfilt2(b2, a2, x), filtfilt(b, a, x, axis=0), atol=1e-10)
+    with pytest.raises(ValueError, match="half the sampling rate"):
+        butter2(0.5 * fs, fs)
+    with pytest.raises(ValueError, match="more than 9"):
+        filtfilt2(b2, a2, x[:9])
 
 
 def _step(stamp: float, side: Side, length: float, confidence: float = 1.0) -> Step:

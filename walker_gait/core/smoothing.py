@@ -99,8 +99,8 @@ BRIDGE_POINTS = (1, 2, 3, 4)
 
 LOWPASS_HZ = 6.0
 """Cut-off (Hz) of the zero-phase low-pass over the reported points and angles (:func:`lowpass_poses`): the usual
-6 Hz of gait laboratories' marker trajectories (Winter).  On ten sweep runs (fifty-second session) 4-8 Hz all
-lowered the heel, ankle and toe errors; below 5 Hz the toe's took-offs and landings got blunted."""
+6 Hz of gait laboratories' marker trajectories (Winter).  On sweep runs (fifty-second session) 4-12 Hz all lowered
+the heel and ankle errors; below 5 Hz the toe's take-offs and landings got blunted."""
 LOWPASS_ORDER = 2
 """Order of that Butterworth filter (run both ways: fourth-order roll-off, no phase lag)."""
 LOWPASS_MIN_FRAMES = 10
@@ -383,8 +383,8 @@ def bridge_hidden_legs(poses: Sequence[LegPose], *, hide_below: float, max_gap_s
 
     A foot seen less than ``hide_below`` (the tracker's ``hide_below``) is out of the tracker's likelihood, which
     holds its pose; the real foot meanwhile rolls off the floor, which carries it back through the walker frame,
-    and swings through unseen: in the merged track a hidden foot's heel was 12.5 cm off on average, 8 cm ahead of
-    the real one (DEVELOPERS.md, fifty-second session).  Offline both ends of the stretch are known: where the leg
+    and swings through unseen: in the merged track a hidden foot's heel was 10.6 cm off on average, 5.2 cm ahead of
+    the real one (ten sweep runs, DEVELOPERS.md, fifty-second session).  Offline both ends of the stretch are known: where the leg
     was last seen and how it moved then, where it is seen again and how it moves there.  Inside the stretch its
     knee, ankle, heel and toe (``BRIDGE_POINTS``) follow cubic Hermite curves in time from the last frame before
     to the first frame after it, each end's velocity the mean over ``fit_frames`` frames outside the stretch: the
@@ -434,6 +434,46 @@ def bridge_hidden_legs(poses: Sequence[LegPose], *, hide_below: float, max_gap_s
     return out
 
 
+def butter2(cutoff_hz: float, fs: float) -> tuple[FloatArray, FloatArray]:
+    """Second-order Butterworth low-pass ``(b, a)`` at ``cutoff_hz`` for samples at ``fs`` (bilinear transform,
+    pre-warped: what ``scipy.signal.butter(2, cutoff_hz / (fs / 2))`` gives, without importing ``scipy.signal``,
+    which takes half a second)."""
+    if not 0.0 < cutoff_hz < 0.5 * fs:
+        raise ValueError(f"the cut-off must lie between 0 and half the sampling rate ({0.5 * fs:g} Hz), got {cutoff_hz}")
+    k = math.tan(math.pi * cutoff_hz / fs)
+    norm = 1.0 / (1.0 + math.sqrt(2.0) * k + k * k)
+    b0 = k * k * norm
+    return (np.array([b0, 2.0 * b0, b0]),
+            np.array([1.0, 2.0 * (k * k - 1.0) * norm, (1.0 - math.sqrt(2.0) * k + k * k) * norm]))
+
+
+def _lfilter2(b: FloatArray, a: FloatArray, x: FloatArray) -> FloatArray:
+    """Second-order IIR filter along axis 0 (direct form II transposed), started in its steady state for ``x[0]``
+    (as ``scipy.signal.lfilter`` with ``lfilter_zi``; unit gain at 0 Hz, as a low-pass has)."""
+    y = np.empty_like(x)
+    z0 = (1.0 - b[0]) * x[0]
+    z1 = (b[2] - a[2]) * x[0]
+    for i in range(x.shape[0]):
+        y[i] = b[0] * x[i] + z0
+        z0 = b[1] * x[i] - a[1] * y[i] + z1
+        z1 = b[2] * x[i] - a[2] * y[i]
+    return y
+
+
+def filtfilt2(b: FloatArray, a: FloatArray, x: FloatArray) -> FloatArray:
+    """``x`` filtered forwards and backwards along axis 0 by the second-order ``(b, a)`` (zero phase), its ends
+    extended by odd reflection over 9 samples: ``scipy.signal.filtfilt(b, a, x, axis=0)``'s defaults.  ``x`` needs
+    more than 9 samples."""
+    pad = 9
+    x = np.asarray(x, dtype=np.float64)
+    if x.shape[0] <= pad:
+        raise ValueError(f"filtfilt2 needs more than {pad} samples, got {x.shape[0]}")
+    ext = np.concatenate([2.0 * x[:1] - x[pad:0:-1], x, 2.0 * x[-1:] - x[-2:-pad - 2:-1]])
+    y = _lfilter2(b, a, ext)
+    y = _lfilter2(b, a, y[::-1])[::-1]
+    return y[pad:-pad]
+
+
 def lowpass_poses(poses: Sequence[LegPose], *, cutoff_hz: float = LOWPASS_HZ,
                   order: int = LOWPASS_ORDER) -> list[LegPose]:
     """``poses`` (a track, in recording order) with their points and joint angles low-passed over time.
@@ -444,12 +484,10 @@ def lowpass_poses(poses: Sequence[LegPose], *, cutoff_hz: float = LOWPASS_HZ,
     TRACKING or DEGRADED, no interval over twice the stretch's median) at that stretch's median frame rate; a stretch
     too short for the filter (``LOWPASS_MIN_FRAMES``) or sampled at less than 2.5 times the cut-off stays as it is.
     Segments move with the points (:func:`_with_points`); radii, visibility, status and confidence stay.  ``poses``
-    is not modified.
+    is not modified.  Second order only (:func:`butter2`, :func:`filtfilt2`).
     """
-    from scipy.signal import butter, filtfilt
-
-    if order < 1:
-        raise ValueError(f"order must be >= 1, got {order}")
+    if order != 2:
+        raise ValueError(f"order must be 2 (a second-order Butterworth, run both ways), got {order}")
     n = len(poses)
     out = list(poses)
     if cutoff_hz <= 0 or n < LOWPASS_MIN_FRAMES:
@@ -479,11 +517,11 @@ def lowpass_poses(poses: Sequence[LegPose], *, cutoff_hz: float = LOWPASS_HZ,
             fs = 1.0 / float(np.median(np.diff(stamps[lo:hi])))
             if fs < 2.5 * cutoff_hz:
                 continue
-            b, a_ = butter(order, cutoff_hz / (0.5 * fs))
-            pts = filtfilt(b, a_, np.stack([poses[i].points for i in range(lo, hi)]), axis=0)
+            b, a_ = butter2(cutoff_hz, fs)
+            pts = filtfilt2(b, a_, np.stack([poses[i].points for i in range(lo, hi)]))
             ang = np.stack([np.asarray(poses[i].angles, dtype=np.float64) for i in range(lo, hi)])
             if ang.ndim == 2 and np.all(np.isfinite(ang)):
-                ang = filtfilt(b, a_, ang, axis=0)
+                ang = filtfilt2(b, a_, ang)
             else:
                 ang = None
             for j, i in enumerate(range(lo, hi)):
@@ -528,7 +566,7 @@ def reported_poses(poses: Sequence[LegPose], *, hide_below: float, max_gap_s: fl
     for pose, done, wt in zip(poses, out, frames):
         if wt is None:
             shown.append(pose)
-        elif done is None or np.array_equal(done.points, _moved(pose, *wt).points):
+        elif np.array_equal(done.points, _moved(pose, *wt).points):
             shown.append(pose)  # untouched: the tracker's own pose, bit for bit
         else:
             rot, t = wt
