@@ -556,6 +556,7 @@ def reported_poses(poses: Sequence[LegPose], *, hide_below: float, max_gap_s: fl
                 out[i] = _moved(pose, *frames[i])
             else:  # no walker frame to work in: left out of both, reported as tracked
                 out[i] = LegPose.no_user(pose.stamp)
+    before = list(out)
     if max_gap_s > 0:
         out = bridge_hidden_legs(out, hide_below=hide_below, max_gap_s=max_gap_s)
     if lowpass_hz > 0:
@@ -563,11 +564,9 @@ def reported_poses(poses: Sequence[LegPose], *, hide_below: float, max_gap_s: fl
     if floors is None:
         return out
     shown = []
-    for pose, done, wt in zip(poses, out, frames):
-        if wt is None:
-            shown.append(pose)
-        elif np.array_equal(done.points, _moved(pose, *wt).points):
-            shown.append(pose)  # untouched: the tracker's own pose, bit for bit
+    for pose, first, done, wt in zip(poses, before, out, frames):
+        if wt is None or done is first:
+            shown.append(pose)  # untouched (both return an untouched pose as given): the tracker's own, bit for bit
         else:
             rot, t = wt
             shown.append(_moved(done, rot.T, -(rot.T @ t)))
