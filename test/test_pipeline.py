@@ -394,6 +394,32 @@ def test_two_passes_merge_the_forward_pass_with_a_backward_one(short_session: Pa
     assert two.summary["mean_confidence"] == pytest.approx(np.mean([s.confidence for s in two.steps]))
 
 
+def test_the_backward_pass_tells_its_tracker_that_time_runs_backwards(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The backward pass's tracker is built with ``time_reversed`` (its footprints read a swinging foot the other way
+    round); the forward tracker is not."""
+    from types import SimpleNamespace
+
+    import walker_gait.core.smoothing as smoothing
+    import walker_gait.core.tracker as tracker
+    from walker_gait.pipeline import FrameProcessor
+
+    made: list[dict[str, Any]] = []
+
+    class Recorder:
+        def __init__(self, *args: Any, **kwargs: Any) -> None:
+            made.append(kwargs)
+
+    def one_tracker(make: Any, frames: Any, **kwargs: Any) -> str:
+        make(frames[0])
+        return "pass"
+
+    monkeypatch.setattr(tracker, "LegTracker", Recorder)
+    monkeypatch.setattr(smoothing, "track_pass", one_tracker)
+    proc = FrameProcessor(_options(0, passes="both"))
+    assert proc.backward([SimpleNamespace(intrinsics=None)]) == "pass"
+    assert made == [{"rng": made[0]["rng"], "mounting": "facing_user", "time_reversed": True}]
+
+
 def test_passes_must_be_known() -> None:
     from walker_gait.config import ParameterError
 

@@ -466,7 +466,8 @@ class FrameProcessor:
 
         def make(frame: Any) -> LegTracker:
             return LegTracker(self.options.tracker, frame.intrinsics,
-                              rng=stage_rng(self.options.seed, "leg_tracker_backward"), mounting=self.options.mounting)
+                              rng=stage_rng(self.options.seed, "leg_tracker_backward"), mounting=self.options.mounting,
+                              time_reversed=True)
 
         return track_pass(make, frames, backward=True, score=lambda i, f, x: self._score(f, x, i), progress=progress)
 

@@ -745,6 +745,35 @@ def test_footprints_measure_the_floor_motion_from_planted_toes_in_view() -> None
     assert fp.planted_since[0] == pytest.approx(45 / 30.0)
 
 
+def test_footprints_read_backwards_in_time_take_the_floor_moving_forward() -> None:
+    """Fed backwards in time (the offline backward pass) the floor moves towards +x through the walker frame and a
+    swinging foot towards -x: a toe on the floor moving forward with the floor is planted there, one moving back is
+    swinging.  Read as forwards, the same stance foot was taken for a swinging one and never planted."""
+    v = np.array([1.1, -0.05])  # the floor, time reversed
+    left_only = np.array([True, False])
+    back, fwd = _Footprints(direction=-1.0), _Footprints()
+    for k in range(30):
+        t = k / 30.0
+        pts = _foot_points((0.2 + v[0] * t, 0.1 + v[1] * t))
+        back.update(t, pts, left_only, release_s=0.1)
+        fwd.update(t, pts, left_only, release_s=0.1)
+    np.testing.assert_allclose(back.floor_vel, v, atol=0.01)
+    assert back.planted_since[0] == 0.0 and back.predicted(0, 1.0, max_s=0.5) is not None
+    assert np.allclose(fwd.floor_vel, 0.0) and fwd.predicted(0, 1.0, max_s=0.5) is None
+    before = back.floor_vel.copy()
+    x0 = 0.2 + v[0]
+    back.update(1.0, _foot_points((x0 - 0.2, 0.1)), left_only, release_s=0.1)  # 6 m/s towards -x: swinging
+    np.testing.assert_allclose(back.floor_vel, before)
+
+
+def test_a_tracker_fed_backwards_reads_its_footprints_backwards(seq) -> None:  # noqa: ANN001
+    fwd = LegTracker(FAST, seq.intrinsics, rng=np.random.default_rng(0))
+    back = LegTracker(FAST, seq.intrinsics, rng=np.random.default_rng(0), time_reversed=True)
+    assert fwd._footprints.direction == 1.0 and back._footprints.direction == -1.0
+    back.reset()
+    assert back._footprints.direction == -1.0
+
+
 def test_footprints_predict_where_a_foot_last_seen_planted_stands() -> None:
     """A foot seen planted and then lost from view stands where its toe was in its last planted frames (their
     mean, each carried along by the floor's motion since); a foot last seen off the floor, lost for longer than

@@ -480,9 +480,13 @@ class _Footprints:
     ``_FOOTPRINT_MIN_SAMPLES`` planted frames.  The floor's velocity is the running mean of the
     velocities of toes planted in this frame and the last.  Estimated heels are no help here: seen from the front,
     the tracker often has a flat foot's heel raised by 4-9 cm.  Body-frame xy throughout (+x = the user's forward,
-    the floor moves towards -x).
+    the floor moves towards -x).  Fed a recording backwards (``direction`` -1, the offline backward pass) the floor
+    moves towards +x and a swinging foot back, so "moving forward" is read the other way round: read forwards, stance
+    feet were never planted there and swinging feet near the floor were (the floor's velocity came out -0.8 to
+    -1.3 m/s where it was +1.1, fifty-second session).
     """
 
+    direction: float = 1.0  # +1: the frames come forwards in time; -1: backwards (the backward tracking pass)
     floor_vel: FloatArray = field(default_factory=lambda: np.zeros(2))  # m/s, floor velocity in the body frame
     prev_stamp: float = math.nan
     prev_toe: FloatArray = field(default_factory=lambda: np.full((2, 2), np.nan))  # toe xy of the last frame
@@ -502,7 +506,8 @@ class _Footprints:
         dt = stamp - self.prev_stamp
         both = seen & self.prev_seen & (0.0 < dt <= 0.2)
         vel = (toe - self.prev_toe) / dt if dt > 0 else np.zeros_like(toe)
-        moving = both & (vel[:, 0] > FOOTPRINT_MAX_FORWARD)  # swinging forward
+        # swinging forward (tracked backwards in time, the floor moves forward and a swinging foot back)
+        moving = both & (self.direction * vel[:, 0] > FOOTPRINT_MAX_FORWARD)
         planted = low & ~moving
         ok = planted & self.prev_planted & both & (np.hypot(vel[:, 0], vel[:, 1]) < _FLOOR_MAX_SPEED)
         if ok.any():
@@ -549,7 +554,9 @@ class _Footprints:
 class LegTracker:
     """Particle-filter tracker of both legs (see module docstring).
 
-    ``rng`` drives every random choice, so a seeded Generator makes the tracker deterministic.
+    ``rng`` drives every random choice, so a seeded Generator makes the tracker deterministic.  ``time_reversed``:
+    the frames come backwards in time (stamps negated, :func:`walker_gait.core.smoothing.track_pass`); only the
+    footprints' test of a swinging foot reads the direction (``footprint_sigma``).
     """
 
     def __init__(
@@ -559,6 +566,7 @@ class LegTracker:
         *,
         rng: np.random.Generator,
         mounting: str = "facing_user",
+        time_reversed: bool = False,
     ) -> None:
         if mounting not in ("facing_user", "facing_forward"):
             raise ValueError(f"mounting must be 'facing_user' or 'facing_forward', got {mounting!r}")
@@ -566,6 +574,7 @@ class LegTracker:
         self.intrinsics = intrinsics
         self.rng = rng
         self.mounting = mounting
+        self.time_reversed = time_reversed  # fed a recording backwards (stamps negated): the walker backs away
         self._noise = config.noise_vector()
         self._angle_mask = StateLayout.angle_mask()
         self._p3 = Cue3DParams(
@@ -601,7 +610,7 @@ class LegTracker:
         self._wait_start = math.nan
         self._unexplained_run = 0  # frames in a row whose estimate left `hidden_search_unexplained` of the foreground unexplained
         self._hidden = _HiddenState()
-        self._footprints = _Footprints()
+        self._footprints = _Footprints(direction=-1.0 if self.time_reversed else 1.0)
         self._stamp = math.nan
         self.status = TrackStatus.NO_USER
         self._coasted = 0
@@ -1189,7 +1198,7 @@ class LegTracker:
         x, _, _ = lm.enforce_constraints(x, fallback=np.broadcast_to(base, x.shape).copy())
         self._x_prev = x.copy()
         self._hidden = _HiddenState()
-        self._footprints = _Footprints()
+        self._footprints = _Footprints(direction=-1.0 if self.time_reversed else 1.0)
         layers = max(cfg.n_layers, 2)
         betas = tuple(np.linspace(0.3, 1.0, layers))
         for r in range(cfg.init_rounds):
