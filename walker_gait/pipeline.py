@@ -61,8 +61,10 @@ class PipelineOptions:
     prefetch: int = 4  # frames decoded + segmented ahead in a forked worker process (0: all in this process)
     passes: str = "both"  # "both": tracked forwards and backwards, merged (core.smoothing); "forward": as the live graph
     store_memory_mb: int = 256  # "both": prepared frames kept in memory up to this size, beyond it in a temporary file
-    bridge_hidden_s: float = 1.0  # "both": a hidden foot's stretch up to this long bridged in the reported poses (core.smoothing.bridge_hidden_legs; 0 = off)
-    report_lowpass_hz: float = 6.0  # "both": the reported points and angles low-passed at this cut-off (core.smoothing.lowpass_poses; 0 = off)
+    # "both": a hidden foot's stretch up to this long bridged in the reported poses (smoothing.bridge_hidden_legs; 0 = off)
+    bridge_hidden_s: float = 1.0
+    # "both": the reported points and angles low-passed at this cut-off (smoothing.lowpass_poses; 0 = off)
+    report_lowpass_hz: float = 6.0
 
     def __post_init__(self) -> None:
         from walker_gait.core.gait import GaitConfig
@@ -489,7 +491,12 @@ class FrameProcessor:
         kept: tuple[PassTrack, ...] = ()
         if self._two_way and self._fwd:
             from walker_gait.core.gait import GaitAnalyzer
-            from walker_gait.core.smoothing import check_against_passes, merge_passes, reported_poses, wait_for_both_feet
+            from walker_gait.core.smoothing import (
+                check_against_passes,
+                merge_passes,
+                reported_poses,
+                wait_for_both_feet,
+            )
 
             fwd, self._fwd = self._fwd, []
             store, self._store = self._store, None

@@ -203,13 +203,13 @@ def reanalyse(runs: list[SessionRun], gait: GaitConfig | None = None, *,
               bridge_hidden_s: float | None = None, report_lowpass_hz: float | None = None) -> list[SessionRun]:
     """The runs with their steps found again by a fresh gait analyzer (``GaitConfig`` ``gait``, default: the
     pipeline's) on the tracked poses and floors the pipeline gave its analyzer: a two-pass run's passes merged
-    (:func:`walker_gait.core.smoothing.merge_passes`; its stored poses are the ones reported, hidden feet bridged),
-    a one-pass run's own poses.  ``merge`` (keyword arguments of ``merge_passes``): the two-pass runs' passes merged
-    that way, and their reported poses (joint errors) made again from that merge as the pipeline does
+    (:func:`walker_gait.core.smoothing.merge_passes`; its stored poses are the ones reported, hidden feet bridged and
+    low-passed), a one-pass run's own poses.  ``merge`` (keyword arguments of ``merge_passes``): the two-pass runs'
+    passes merged that way, and their reported poses (joint errors) made again from that merge as the pipeline does
     (:func:`walker_gait.core.smoothing.reported_poses`, ``bridge_hidden_s`` and ``report_lowpass_hz`` as
-    ``PipelineOptions``, default its defaults).  Two-pass runs get their steps checked against each pass's own as the pipeline does
-    (:func:`walker_gait.core.smoothing.check_against_passes`; ``confirm``: keyword arguments of its
-    ``confirm_steps``)."""
+    ``PipelineOptions``, default its defaults).  Two-pass runs get their steps checked against each pass's own as
+    the pipeline does (:func:`walker_gait.core.smoothing.check_against_passes`; ``confirm``: keyword arguments of
+    its ``confirm_steps``)."""
     from walker_gait.bench.gait import match_steps, run_analyzer
     from walker_gait.core.smoothing import check_against_passes, merge_passes, reported_poses
     from walker_gait.core.tracker import preset

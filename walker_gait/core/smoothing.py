@@ -384,15 +384,16 @@ def bridge_hidden_legs(poses: Sequence[LegPose], *, hide_below: float, max_gap_s
     A foot seen less than ``hide_below`` (the tracker's ``hide_below``) is out of the tracker's likelihood, which
     holds its pose; the real foot meanwhile rolls off the floor, which carries it back through the walker frame,
     and swings through unseen: in the merged track a hidden foot's heel was 10.6 cm off on average, 5.2 cm ahead of
-    the real one (ten sweep runs, DEVELOPERS.md, fifty-second session).  Offline both ends of the stretch are known: where the leg
-    was last seen and how it moved then, where it is seen again and how it moves there.  Inside the stretch its
-    knee, ankle, heel and toe (``BRIDGE_POINTS``) follow cubic Hermite curves in time from the last frame before
-    to the first frame after it, each end's velocity the mean over ``fit_frames`` frames outside the stretch: the
-    spline gap fill of marker-based motion capture, with both ends' velocities.  A stretch is bridged only when it
-    lasts at most ``max_gap_s`` and the frames ``fit_frames`` either side of it have the foot seen and finite
-    points (one track, no restart in between).  The leg's segments move with its points (the thigh's and the
-    calf's ends to the knee and ankle, the foot's by the heel's and the toe's displacement); joint angles, radii,
-    visibility, status and confidence stay the tracker's.  ``poses`` is not modified.
+    the real one (ten sweep runs, DEVELOPERS.md, fifty-second session).  Offline both ends of the stretch are
+    known: where the leg was last seen and how it moved then, where it is seen again and how it moves there.
+    Inside the stretch its knee, ankle, heel and toe (``BRIDGE_POINTS``) follow cubic Hermite curves in time from
+    the last frame before to the first frame after it, each end's velocity the mean over ``fit_frames`` frames
+    outside the stretch: the spline gap fill of marker-based motion capture, with both ends' velocities.  A
+    stretch is bridged only when it lasts at most ``max_gap_s`` and the frames ``fit_frames`` either side of it
+    have the foot seen and finite points (one track, no restart in between).  The leg's segments move with its
+    points (the thigh's and the calf's ends to the knee and ankle, the foot's by the heel's and the toe's
+    displacement); joint angles, radii, visibility, status and confidence stay the tracker's.  ``poses`` is not
+    modified.
     """
     if fit_frames < 1:
         raise ValueError(f"fit_frames must be >= 1, got {fit_frames}")
@@ -439,7 +440,8 @@ def butter2(cutoff_hz: float, fs: float) -> tuple[FloatArray, FloatArray]:
     pre-warped: what ``scipy.signal.butter(2, cutoff_hz / (fs / 2))`` gives, without importing ``scipy.signal``,
     which takes half a second)."""
     if not 0.0 < cutoff_hz < 0.5 * fs:
-        raise ValueError(f"the cut-off must lie between 0 and half the sampling rate ({0.5 * fs:g} Hz), got {cutoff_hz}")
+        raise ValueError(f"the cut-off must lie between 0 and half the sampling rate ({0.5 * fs:g} Hz), "
+                         f"got {cutoff_hz}")
     k = math.tan(math.pi * cutoff_hz / fs)
     norm = 1.0 / (1.0 + math.sqrt(2.0) * k + k * k)
     b0 = k * k * norm
