@@ -391,6 +391,8 @@ def test_two_passes_merge_the_forward_pass_with_a_backward_one(short_session: Pa
     assert meta_two["steps_unconfirmed"] == fin.unconfirmed_steps == two.steps_unconfirmed
     assert fin.unconfirmed_steps == sum(s.confidence != p.confidence for s, p in zip(got, plain.steps))
     assert meta_one["steps_unconfirmed"] is None
+    assert (meta_two["bridge_hidden_s"], meta_two["report_lowpass_hz"]) == (1.0, 6.0)
+    assert meta_one["bridge_hidden_s"] is None and meta_one["report_lowpass_hz"] is None
     assert two.summary["mean_confidence"] == pytest.approx(np.mean([s.confidence for s in two.steps]))
 
 

@@ -986,6 +986,8 @@ def process_recording(path: Path, out_dir: Path, *, options: PipelineOptions | N
         "passes": options.passes,
         "frames_from_backward_pass": (round(finished.backward_share * processed) if two_way and processed else None),
         "steps_unconfirmed": finished.unconfirmed_steps if two_way else None,
+        "bridge_hidden_s": options.bridge_hidden_s if two_way else None,
+        "report_lowpass_hz": options.report_lowpass_hz if two_way else None,
         "frames_total": n_frames,
         "frames_processed": processed,
         "frames_skipped": dict(skipped),
