@@ -208,6 +208,12 @@ def _pipeline_params(args: argparse.Namespace) -> Any:
     return file_params, parse_overrides(args.param or [])
 
 
+def _report_options(args: argparse.Namespace) -> dict[str, float]:
+    """The reported poses' ``PipelineOptions`` given on the command line (the others keep the options' defaults)."""
+    return {name: value for name in ("bridge_hidden_s", "report_lowpass_hz")
+            if (value := getattr(args, name, None)) is not None}
+
+
 def cmd_process(args: argparse.Namespace) -> int:
     from walker_gait.pipeline import PipelineOptions, process_recording
 
@@ -218,8 +224,7 @@ def cmd_process(args: argparse.Namespace) -> int:
     options = PipelineOptions.from_params(file_params, overrides, preset=args.preset, seed=args.seed,
                                           depth_topic=args.depth_topic, info_topic=args.info_topic,
                                           camera_info_file=args.camera_info, passes=args.passes,
-                                          bridge_hidden_s=args.bridge_hidden_s,
-                                          report_lowpass_hz=args.report_lowpass_hz)
+                                          **_report_options(args))
     result = process_recording(path, Path(args.out), options=options, progress=not args.quiet)
     if not args.quiet:
         print(result.describe())
@@ -231,8 +236,7 @@ def cmd_batch(args: argparse.Namespace) -> int:
 
     file_params, overrides = _pipeline_params(args)
     options = PipelineOptions.from_params(file_params, overrides, preset=args.preset, seed=args.seed,
-                                          passes=args.passes, bridge_hidden_s=args.bridge_hidden_s,
-                                          report_lowpass_hz=args.report_lowpass_hz)
+                                          passes=args.passes, **_report_options(args))
     table = process_batch(Path(args.folder), Path(args.out), options=options, workers=args.workers,
                           progress=not args.quiet)
     print(f"summary table: {table}")
@@ -311,12 +315,12 @@ def build_parser() -> argparse.ArgumentParser:
                        help="both (default): track the recording forwards and backwards in time and keep, frame by "
                        "frame, the estimate the depth data support better (about twice the tracking time); "
                        "forward: one pass, as the live graph tracks")
-        p.add_argument("--bridge-hidden-s", type=float, default=1.0, metavar="S",
+        p.add_argument("--bridge-hidden-s", type=float, default=None, metavar="S",
                        help="with --passes both: where a foot was hidden behind the other leg for up to S seconds, "
                        "report its knee, ankle, heel and toe on a curve between where it was last seen and where it "
                        "is seen again instead of the tracker's held pose (default 1.0; 0 = off; the gait analysis "
                        "reads the tracked poses either way)")
-        p.add_argument("--report-lowpass-hz", type=float, default=6.0, metavar="HZ",
+        p.add_argument("--report-lowpass-hz", type=float, default=None, metavar="HZ",
                        help="with --passes both: low-pass the reported leg points and joint angles at HZ (zero-phase "
                        "Butterworth, as gait labs filter marker trajectories; default 6; 0 = off; the gait analysis "
                        "reads the tracked poses either way)")

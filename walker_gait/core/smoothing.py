@@ -348,6 +348,11 @@ def blend_poses(poses: Sequence[LegPose], chosen: int, *, agree_m: tuple[float, 
                                radii=mix("radii"), visibility=mix("visibility"))
 
 
+def _has_points(pose: LegPose) -> bool:
+    """The pose has all ten leg points, finite."""
+    return pose.points is not None and np.shape(pose.points) == (2, 5, 3) and bool(np.all(np.isfinite(pose.points)))
+
+
 def _feet_hidden(pose: LegPose, hide_below: float) -> NDArray[np.bool_]:
     """``(2,)``: which of the pose's feet are seen less than ``hide_below`` (their visibility); none without one."""
     if pose.visibility is None:
@@ -401,8 +406,7 @@ def bridge_hidden_legs(poses: Sequence[LegPose], *, hide_below: float, max_gap_s
     out = list(poses)
     if max_gap_s <= 0 or n < 2 * fit_frames + 3:
         return out
-    ok = np.array([p.points is not None and np.shape(p.points) == (2, 5, 3) and bool(np.all(np.isfinite(p.points)))
-                   for p in poses])
+    ok = np.array([_has_points(p) for p in poses])
     hidden = np.array([_feet_hidden(p, hide_below) for p in poses]).reshape(n, 2) & ok[:, None]
     stamps = np.array([float(p.stamp) for p in poses])
     idx = np.array(BRIDGE_POINTS)
@@ -494,8 +498,7 @@ def lowpass_poses(poses: Sequence[LegPose], *, cutoff_hz: float = LOWPASS_HZ,
     out = list(poses)
     if cutoff_hz <= 0 or n < LOWPASS_MIN_FRAMES:
         return out
-    tracked = np.array([p.status in (TrackStatus.TRACKING, TrackStatus.DEGRADED) and p.points is not None
-                        and np.shape(p.points) == (2, 5, 3) and bool(np.all(np.isfinite(p.points))) for p in poses])
+    tracked = np.array([p.status in (TrackStatus.TRACKING, TrackStatus.DEGRADED) and _has_points(p) for p in poses])
     stamps = np.array([float(p.stamp) for p in poses])
     t = 0
     while t < n:
