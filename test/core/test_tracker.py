@@ -55,7 +55,8 @@ def test_presets() -> None:
                 {"hidden_search_frames": 0}, {"hidden_velocity_damping": -0.1}, {"heel_rise_dorsiflexion": -0.1},
                 {"heel_rise_dorsiflexion": float("nan")}, {"footprint_sigma": 0.0}, {"footprint_sigma_growth": -0.1},
                 {"footprint_max_s": 0.0}, {"blank_view_share": 0.0}, {"blank_view_share": 1.5},
-                {"cue2d_focal": -1.0}, {"cue2d_focal": float("inf")}):
+                {"cue2d_focal": -1.0}, {"cue2d_focal": float("inf")}, {"redetect_every_s": -1.0},
+                {"redetect_every_s": float("nan")}, {"redetect_margin": -0.5}, {"redetect_rounds": -1}):
         with pytest.raises(ValueError):
             preset("default", **bad)
 
@@ -330,7 +331,8 @@ def test_redetects_when_the_second_leg_enters_view() -> None:
     """A track started on one visible leg puts both model legs on it; once the other leg enters the view,
     the unexplained foreground (``min_explained``) triggers a re-detection that finds both legs.  The track is
     started at once here (``single_leg_wait_s`` 0: as when the other leg stays out of view longer than the wait;
-    with the default wait of 1 s this 0.4 s one-leg view does not start a track at all)."""
+    with the default wait of 1 s this 0.4 s one-leg view does not start a track at all).  The periodic
+    re-detection (``redetect_every_s``) is off, so that this rule alone acts."""
     frames = _one_leg_then_two(12, 36)
 
     def late_error(min_explained: float) -> float:
@@ -338,7 +340,8 @@ def test_redetects_when_the_second_leg_enters_view() -> None:
         # second leg anyway
         err = []
         for seed in (0, 1):
-            tracker = LegTracker(preset("default", min_explained=min_explained, single_leg_wait_s=0.0), KINECT,
+            tracker = LegTracker(preset("default", min_explained=min_explained, single_leg_wait_s=0.0,
+                                        redetect_every_s=0.0), KINECT,
                                  rng=np.random.default_rng(seed))
             poses = _run(tracker, frames)
             e = [np.linalg.norm(p.points - f.gt, axis=-1)[:, 2:].mean() for p, f in zip(poses, frames)]
@@ -382,12 +385,13 @@ def test_reinitialises_when_a_leg_leaves_the_data(seq) -> None:  # noqa: ANN001
     raised above the image) is not hidden, it is lost: with ``lost_leg_frames`` the track re-initialises
     after that many frames and finds the leg again.  ``min_explained`` is off so that this rule alone acts
     (on the walker the other model leg often explains both close legs' foreground, and nothing else fires),
-    and so are the search for hidden legs (``hidden_search_share``) and the footprint prior
-    (``footprint_sigma``, which without its gate found it too)."""
+    and so are the search for hidden legs (``hidden_search_share``), the footprint prior
+    (``footprint_sigma``, which without its gate found it too) and the periodic re-detection
+    (``redetect_every_s``)."""
 
     def run(lost_leg_frames: int, seed: int) -> tuple[int, list[float]]:
         return _raised_left_leg_run(seq, seed, lost_leg_frames=lost_leg_frames, hidden_search_share=0.0,
-                                    footprint_sigma=np.inf)
+                                    footprint_sigma=np.inf, redetect_every_s=0.0)
 
     for seed in (0, 1):
         n_init, foot = run(6, seed)
@@ -398,15 +402,42 @@ def test_reinitialises_when_a_leg_leaves_the_data(seq) -> None:  # noqa: ANN001
         assert n_init == 0 and min(foot) > 0.5, foot  # without the rule nothing brings it back
 
 
+def test_a_track_stuck_in_a_wrong_pose_is_replaced_by_a_redetection_that_scores_higher(seq) -> None:  # noqa: ANN001
+    """With ``redetect_every_s`` the tracker searches afresh from the foreground that often and takes the fresh
+    estimate where it scores ``redetect_margin`` higher than the track's.  A left leg raised above the image, with
+    every other rule that would catch it off (``lost_leg_frames``, ``min_explained``, the hidden-leg search, the
+    footprint prior), stays lost without it and comes back with it."""
+    off = {"lost_leg_frames": 0, "hidden_search_share": 0.0, "footprint_sigma": np.inf}
+    for seed in (0, 1):
+        n_init, foot = _raised_left_leg_run(seq, seed, redetect_every_s=0.1, **off)
+        assert n_init == 0  # not a re-initialisation: the track goes on
+        assert min(foot[:2]) > 0.5, foot  # lost until the next re-detection is due ...
+        assert max(foot[6:]) < 0.1, foot  # ... then found again (left ankle, heel, toe)
+        n_init, foot = _raised_left_leg_run(seq, seed, redetect_every_s=0.0, **off)
+        assert n_init == 0 and min(foot) > 0.5, foot  # without it nothing brings it back
+
+
+def test_redetection_leaves_a_good_track_as_good(seq) -> None:  # noqa: ANN001
+    """On a track that is right, re-detecting every frame changes little: the error stays that of the track."""
+    errs = {}
+    for every in (0.0, 0.01):
+        tr = LegTracker(dataclasses.replace(FAST, redetect_every_s=every), KINECT, rng=np.random.default_rng(3))
+        poses = _run(tr, seq.frames)
+        errs[every] = np.mean([np.linalg.norm(p.points - f.gt, axis=-1).mean() for p, f in zip(poses, seq.frames)])
+    assert errs[0.01] < max(1.2 * errs[0.0], errs[0.0] + 0.01), errs
+    assert errs[0.01] < 0.06, errs
+
+
 def test_a_hidden_leg_is_searched_for_where_foreground_is_unexplained(seq) -> None:  # noqa: ANN001
     """A model leg that nobody sees (HIDDEN) is out of ``d_MF``; where the estimate leaves foreground
     unexplained, ``hidden_search_share`` of the particles draw that leg afresh from a wide range of poses,
     and the leg finds its data again without a re-initialisation.  Re-initialisations are off here
-    (``min_explained``, ``lost_leg_frames``), and so is the footprint prior (``footprint_sigma``), so that this
-    rule alone acts."""
+    (``min_explained``, ``lost_leg_frames``), and so are the footprint prior (``footprint_sigma``) and the periodic
+    re-detection (``redetect_every_s``), so that this rule alone acts."""
 
     def run(share: float, seed: int) -> tuple[int, list[float]]:
-        return _raised_left_leg_run(seq, seed, lost_leg_frames=0, hidden_search_share=share, footprint_sigma=np.inf)
+        return _raised_left_leg_run(seq, seed, lost_leg_frames=0, hidden_search_share=share, footprint_sigma=np.inf,
+                                    redetect_every_s=0.0)
 
     assert DEFAULT.hidden_search_share > 0
     later: list[float] = []

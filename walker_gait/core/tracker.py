@@ -92,7 +92,13 @@ lives in the floor-aligned *body* frame of :mod:`walker_gait.core.leg_model`):
    absent-start and occlusion sessions: a model leg held above or beside the image, 40-70 cm off, for
    seconds).  Points over pixels without depth count as possibly hidden there, not as over nothing: a leg
    swinging close to the lens lies mostly in the hole it makes, with its knee above the image's top, and
-   counting only those few points out of the image re-detected the legs mid-swing (and exchanged them).
+   counting only those few points out of the image re-detected the legs mid-swing (and exchanged them);
+8. re-detection (``redetect_every_s``, ``default``): that often a track that goes on is searched afresh from the
+   foreground as on initialisation (``redetect_rounds`` rounds), and the fresh estimate replaces the track's when it
+   scores ``redetect_margin`` higher with every segment in the likelihood.  None of the rules of step 7 fires on a
+   track that is wrong but explains the foreground: a user who walked in from the side and stood at the walker
+   turned 40° kept a model crouched 30 cm back with its pelvis square to the camera (the hips are out of view),
+   10-35 cm off for seconds, while a search from scratch on the same frame came within 6-7 cm and scored higher.
 
 Left/right identity: the state keeps the left hip at +y (anatomical left) of the right hip
 (``|hip_azimuth| < 0.7``) and the detection assigns blobs by the same axis, so legs cannot
@@ -177,6 +183,10 @@ _VIS_POINTS = 10  # interior axis points per segment sampled by the visibility t
 _UNSUPPORTED_MAX = 0.1  # a leg's calf + foot with at most this share of their counted axis points seen or hidden lie over nothing
 
 
+_REDETECT_POINTS = 2048
+"""Most foreground points a re-detection's comparison of the fresh estimate with the track's weighs."""
+
+
 class TrackerInputError(ValueError):
     """Malformed input to :meth:`LegTracker.update` (shapes, dtypes, invalid floor)."""
 
@@ -225,6 +235,9 @@ class TrackerConfig:
     resample_scheme: str = "systematic"
     init_rounds: int = 4  # extra search rounds (all partitions, shrinking noise) on (re-)init
     init_noise_gain: float = 3.0  # noise gain of the first search round
+    redetect_every_s: float = 0.0  # s between re-detections while tracking: a fresh search from the foreground, as on (re-)init, whose estimate replaces the track's where it scores `redetect_margin` higher (0 = never, paper)
+    redetect_margin: float = 5.0  # log-likelihood units by which a re-detection must beat the track (5: odds of about 150 to 1)
+    redetect_rounds: int = 0  # search rounds of a re-detection (0 = `init_rounds`)
     # dynamics (eq. 3 on angles, random walk elsewhere)
     velocity_damping: float = 1.0  # 1 = paper's constant velocity
     sigma_root: float = 0.015  # m, right hip x/y
@@ -281,6 +294,10 @@ class TrackerConfig:
                              f"{self.hidden_search_share}, {self.hidden_search_unexplained}")
         if not 0.0 < self.blank_view_share <= 1.0:
             raise ValueError(f"blank_view_share must be in (0, 1], got {self.blank_view_share}")
+        if not (self.redetect_every_s >= 0 and math.isfinite(self.redetect_every_s) and self.redetect_margin >= 0
+                and self.redetect_rounds >= 0):
+            raise ValueError("redetect_every_s must be finite and >= 0 (0 = never), redetect_margin and redetect_rounds "
+                             f">= 0, got {self.redetect_every_s}, {self.redetect_margin}, {self.redetect_rounds}")
         if self.hidden_search_frames < 1:
             raise ValueError(f"hidden_search_frames must be >= 1, got {self.hidden_search_frames}")
         if not 0.0 <= self.hidden_velocity_damping <= 1.0:
@@ -370,6 +387,7 @@ DEFAULT = TrackerConfig(
     anneal_betas=(0.25, 0.5, 1.0),
     velocity_damping=0.7,
     init_rounds=6,
+    redetect_every_s=1.0,
     min_explained=0.75,
     lost_leg_frames=6,
     single_leg_wait_s=1.0,
@@ -612,6 +630,7 @@ class LegTracker:
         self._hidden = _HiddenState()
         self._footprints = _Footprints(direction=-1.0 if self.time_reversed else 1.0)
         self._stamp = math.nan
+        self._redetect_stamp = math.nan  # stamp of the last (re-)detection
         self.status = TrackStatus.NO_USER
         self._coasted = 0
         self._no_legs_run = 0  # consecutive frames whose foreground showed no legs (`legs_in_view`)
@@ -758,6 +777,11 @@ class LegTracker:
         else:
             self._logw = self._evaluate(frame, self._x, legs=(0, 1), ref=None)
         self._last_ll = None
+        if searching:
+            self._redetect_stamp = float(stamp)
+        elif cfg.redetect_every_s > 0 and not abs(float(stamp) - self._redetect_stamp) < cfg.redetect_every_s:
+            self._redetect_stamp = float(stamp)
+            self._redetect(frame)
         pose, conf, explained, unsupported = self._estimate(frame, stamp)
         self._unexplained_run = self._unexplained_run + 1 if 1.0 - explained > cfg.hidden_search_unexplained else 0
         # track management
@@ -1179,6 +1203,17 @@ class LegTracker:
         return lm.enforce_constraints(state[None])[0][0]
 
     def _initialise(self, frame: _Frame) -> None:
+        self._hidden = _HiddenState()
+        self._footprints = _Footprints(direction=-1.0 if self.time_reversed else 1.0)
+        x = self._search_fresh(frame)
+        self._x = x
+        self._x_prev = x.copy()
+        self._low_conf = 0
+
+    def _search_fresh(self, frame: _Frame, rounds: int | None = None) -> FloatArray:
+        """Particles of a search from scratch: around the detection's standing pose, ``rounds`` (default
+        ``init_rounds``) rounds of every partition with shrinking noise.  Reads the hidden-part state (a fresh one
+        on (re-)init)."""
         cfg = self.config
         base = self._detect(frame)
         p = cfg.n_particles
@@ -1197,16 +1232,40 @@ class LegTracker:
             x[:, k] = np.abs(x[:, k])
         x, _, _ = lm.enforce_constraints(x, fallback=np.broadcast_to(base, x.shape).copy())
         self._x_prev = x.copy()
-        self._hidden = _HiddenState()
-        self._footprints = _Footprints(direction=-1.0 if self.time_reversed else 1.0)
         layers = max(cfg.n_layers, 2)
         betas = tuple(np.linspace(0.3, 1.0, layers))
-        for r in range(cfg.init_rounds):
+        for r in range(cfg.init_rounds if rounds is None else rounds):
             g = cfg.init_noise_gain * (0.6**r)
             x = self._run_stages(frame, x, gain=max(g, 1.0), layers=layers, betas=betas)
-        self._x = x
-        self._x_prev = x.copy()
-        self._low_conf = 0
+        return x
+
+    def _redetect(self, frame: _Frame) -> bool:
+        """A fresh search on this frame; its particles replace the track's where its mean state scores
+        ``redetect_margin`` higher than the track's (both legs' every segment, as :meth:`score`).  Returns
+        whether they did."""
+        assert self._x is not None and self._logw is not None
+        track_x, track_prev, hidden = self._x, self._x_prev, self._hidden
+        self._hidden = _HiddenState()  # the search and the comparison see every part
+        try:
+            fresh = self._search_fresh(frame, self.config.redetect_rounds or None)
+            means = np.stack([self._weighted_mean(track_x, self._logw), fresh.mean(axis=0)])
+            means, _, _ = lm.enforce_constraints(means)
+            # two states only: all the foreground points (up to _REDETECT_POINTS) are affordable, so the comparison
+            # does not hang on the particles' sub-sample of them
+            every = frame.fg_all_body[:: max(1, math.ceil(frame.fg_all_body.shape[0] / _REDETECT_POINTS))]
+            full = dataclasses.replace(frame, fg=frame.body.to_camera(every)) if every.shape[0] else frame
+            ll = self._evaluate(full, means, legs=(0, 1), ref=None)
+        finally:
+            self._hidden = hidden
+            self._x_prev = track_prev
+        if not ll[1] > ll[0] + self.config.redetect_margin:
+            return False
+        self._hidden = _HiddenState()
+        self._footprints = _Footprints(direction=-1.0 if self.time_reversed else 1.0)
+        self._x = fresh
+        self._x_prev = fresh.copy()
+        self._logw = self._evaluate(frame, fresh, legs=(0, 1), ref=None)
+        return True
 
     # -- estimate, visibility, confidence ----------------------------------------------
     def _estimate(self, frame: _Frame, stamp: float) -> tuple[LegPose, float, float, BoolArray]:
