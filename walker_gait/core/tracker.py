@@ -627,8 +627,7 @@ class LegTracker:
         self._fresh = True  # no track since the last reset (`single_leg_wait_s` applies)
         self._wait_start = math.nan
         self._unexplained_run = 0  # frames in a row whose estimate left `hidden_search_unexplained` of the foreground unexplained
-        self._hidden = _HiddenState()
-        self._footprints = _Footprints(direction=-1.0 if self.time_reversed else 1.0)
+        self._forget_parts()
         self._stamp = math.nan
         self._redetect_stamp = math.nan  # stamp of the last (re-)detection
         self.status = TrackStatus.NO_USER
@@ -1202,9 +1201,13 @@ class LegTracker:
         _ = y_left
         return lm.enforce_constraints(state[None])[0][0]
 
-    def _initialise(self, frame: _Frame) -> None:
+    def _forget_parts(self) -> None:
+        """A new particle set's hidden-part state and footprints: nothing hidden, no footprint."""
         self._hidden = _HiddenState()
         self._footprints = _Footprints(direction=-1.0 if self.time_reversed else 1.0)
+
+    def _initialise(self, frame: _Frame) -> None:
+        self._forget_parts()
         x = self._search_fresh(frame)
         self._x = x
         self._x_prev = x.copy()
@@ -1260,8 +1263,7 @@ class LegTracker:
             self._x_prev = track_prev
         if not ll[1] > ll[0] + self.config.redetect_margin:
             return False
-        self._hidden = _HiddenState()
-        self._footprints = _Footprints(direction=-1.0 if self.time_reversed else 1.0)
+        self._forget_parts()
         self._x = fresh
         self._x_prev = fresh.copy()
         self._logw = self._evaluate(frame, fresh, legs=(0, 1), ref=None)
