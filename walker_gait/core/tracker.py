@@ -99,6 +99,8 @@ lives in the floor-aligned *body* frame of :mod:`walker_gait.core.leg_model`):
    track that is wrong but explains the foreground: a user who walked in from the side and stood at the walker
    turned 40° kept a model crouched 30 cm back with its pelvis square to the camera (the hips are out of view),
    10-35 cm off for seconds, while a search from scratch on the same frame came within 6-7 cm and scored higher.
+   The search draws from a random stream of its own (spawned from ``rng``), so a re-detection that is not adopted
+   leaves the track bit for bit as it would be without it.
 
 Left/right identity: the state keeps the left hip at +y (anatomical left) of the right hip
 (``|hip_azimuth| < 0.7``) and the detection assigns blobs by the same axis, so legs cannot
@@ -569,6 +571,15 @@ class _Footprints:
         return np.mean([p + self.floor_vel * (stamp - t) for t, p in self.toe_runs[leg]], axis=0)
 
 
+def _child_generator(rng: np.random.Generator) -> np.random.Generator:
+    """An independent generator derived from ``rng`` without drawing from it (``Generator.spawn``); a generator
+    whose bit generator has no seed sequence to spawn from gives one seeded by a draw from ``rng``."""
+    try:
+        return rng.spawn(1)[0]
+    except TypeError:
+        return np.random.default_rng(int(rng.integers(2**63)))
+
+
 class LegTracker:
     """Particle-filter tracker of both legs (see module docstring).
 
@@ -591,6 +602,9 @@ class LegTracker:
         self.config = config
         self.intrinsics = intrinsics
         self.rng = rng
+        # the re-detections draw from a stream of their own, so one that is not adopted leaves the track exactly as
+        # it would be without it (the main stream is not advanced by it)
+        self._redetect_rng = _child_generator(rng)
         self.mounting = mounting
         self.time_reversed = time_reversed  # fed a recording backwards (stamps negated): the walker backs away
         self._noise = config.noise_vector()
@@ -1247,8 +1261,9 @@ class LegTracker:
         ``redetect_margin`` higher than the track's (both legs' every segment, as :meth:`score`).  Returns
         whether they did."""
         assert self._x is not None and self._logw is not None
-        track_x, track_prev, hidden = self._x, self._x_prev, self._hidden
+        track_x, track_prev, hidden, main_rng = self._x, self._x_prev, self._hidden, self.rng
         self._hidden = _HiddenState()  # the search and the comparison see every part
+        self.rng = self._redetect_rng
         try:
             fresh = self._search_fresh(frame, self.config.redetect_rounds or None)
             means = np.stack([self._weighted_mean(track_x, self._logw), fresh.mean(axis=0)])
@@ -1261,6 +1276,7 @@ class LegTracker:
         finally:
             self._hidden = hidden
             self._x_prev = track_prev
+            self.rng = main_rng
         if not ll[1] > ll[0] + self.config.redetect_margin:
             return False
         self._forget_parts()
