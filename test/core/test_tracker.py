@@ -56,8 +56,7 @@ def test_presets() -> None:
                 {"heel_rise_dorsiflexion": float("nan")}, {"footprint_sigma": 0.0}, {"footprint_sigma_growth": -0.1},
                 {"footprint_max_s": 0.0}, {"blank_view_share": 0.0}, {"blank_view_share": 1.5},
                 {"cue2d_focal": -1.0}, {"cue2d_focal": float("inf")}, {"redetect_every_s": -1.0},
-                {"redetect_every_s": float("nan")}, {"redetect_margin": -0.5}, {"redetect_rounds": -1},
-                {"redetect_turned_share": -0.1}, {"redetect_turned_share": 1.5}):
+                {"redetect_every_s": float("nan")}, {"redetect_margin": -0.5}, {"redetect_rounds": -1}):
         with pytest.raises(ValueError):
             preset("default", **bad)
 
@@ -596,32 +595,6 @@ def test_detection_ignores_low_clutter_beside_the_legs() -> None:
     detected = tracker._detect(tracker._prepare(points, fr.depth, floor))
     found_hips = lm.hip_positions(detected[None])[0]
     assert np.abs(found_hips[:, 1] - true_hips[:, 1]).max() < 0.03
-
-
-def test_a_turned_start_follows_leg_blobs_one_behind_the_other() -> None:
-    """A user standing turned against the walker (pelvis and feet turned by the same angle, either way) shows the two
-    leg blobs one behind the other: ``_turned`` starts a search from the pelvis turned that way, within 0.15 rad,
-    about the square detection's pelvis centre; a user standing square gets a square start."""
-    from walker_gait.bench.tracker import render_frame
-
-    floor = FloorPlane.from_camera_pose(height=0.70, pitch=0.50)
-    tracker = LegTracker(DEFAULT, KINECT, rng=np.random.default_rng(0))
-    L = lm.StateLayout
-    for az in (-0.5, 0.0, 0.4):
-        state = lm.neutral_state(right_hip_xy=(-0.85, -0.09), hip_dist=0.18)
-        state[L.HIP_AZ] = az
-        state = lm.enforce_constraints(state[None])[0][0]
-        fr = render_frame(state, intrinsics=KINECT, floor=floor, mounting="facing_user", rng=np.random.default_rng(1))
-        frame = tracker._prepare(fr.points.astype(np.float64), fr.depth, floor)
-        square = tracker._detect(frame)
-        turned = tracker._turned(frame, square)
-        assert abs(turned[L.HIP_AZ] - az) < 0.15, (az, turned[L.HIP_AZ])
-        assert not lm.constraint_violations(turned[None])[0]
-        hips_sq, hips_tu = lm.hip_positions(square[None])[0], lm.hip_positions(turned[None])[0]
-        np.testing.assert_allclose(hips_tu.mean(axis=0)[:2], hips_sq.mean(axis=0)[:2], atol=1e-9)
-        feet = lm.forward_kinematics(turned).points[0]
-        yaw = np.arctan2(*(feet[:, TOE, 1::-1] - feet[:, HEEL, 1::-1]).T)
-        np.testing.assert_allclose(yaw, turned[L.HIP_AZ], atol=0.05)  # feet along the turned pelvis
 
 
 def _prior_term(seq, x: np.ndarray, legs: tuple[int, ...], *, hidden: np.ndarray | None = None,  # noqa: ANN001

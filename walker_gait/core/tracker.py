@@ -240,7 +240,6 @@ class TrackerConfig:
     redetect_every_s: float = 0.0  # s between re-detections while tracking: a fresh search from the foreground, as on (re-)init, whose estimate replaces the track's where it scores `redetect_margin` higher (0 = never, paper)
     redetect_margin: float = 5.0  # log-likelihood units by which a re-detection must beat the track (5: odds of about 150 to 1)
     redetect_rounds: int = 0  # search rounds of a re-detection (0 = `init_rounds`)
-    redetect_turned_share: float = 0.0  # share of a re-detection's particles that start from a pelvis turned as far as the two leg blobs lie one behind the other (a user standing turned against the walker); the rest start square (0 = all square, as on initialisation)
     # dynamics (eq. 3 on angles, random walk elsewhere)
     velocity_damping: float = 1.0  # 1 = paper's constant velocity
     sigma_root: float = 0.015  # m, right hip x/y
@@ -298,10 +297,9 @@ class TrackerConfig:
         if not 0.0 < self.blank_view_share <= 1.0:
             raise ValueError(f"blank_view_share must be in (0, 1], got {self.blank_view_share}")
         if not (self.redetect_every_s >= 0 and math.isfinite(self.redetect_every_s) and self.redetect_margin >= 0
-                and self.redetect_rounds >= 0 and 0.0 <= self.redetect_turned_share <= 1.0):
+                and self.redetect_rounds >= 0):
             raise ValueError("redetect_every_s must be finite and >= 0 (0 = never), redetect_margin and redetect_rounds "
-                             f">= 0, redetect_turned_share in [0, 1], got {self.redetect_every_s}, {self.redetect_margin}, "
-                             f"{self.redetect_rounds}, {self.redetect_turned_share}")
+                             f">= 0, got {self.redetect_every_s}, {self.redetect_margin}, {self.redetect_rounds}")
         if self.hidden_search_frames < 1:
             raise ValueError(f"hidden_search_frames must be >= 1, got {self.hidden_search_frames}")
         if not 0.0 <= self.hidden_velocity_damping <= 1.0:
@@ -571,10 +569,6 @@ class _Footprints:
         """The mean of the planted toe's positions of foot ``leg``'s run, each carried along by the floor to
         ``stamp``."""
         return np.mean([p + self.floor_vel * (stamp - t) for t, p in self.toe_runs[leg]], axis=0)
-
-
-_TURNED_MAX_AZ = 0.65
-"""rad, the largest pelvis turn :meth:`LegTracker._turned` starts a search from (inside the state's 0.7 limit)."""
 
 
 def _child_generator(rng: np.random.Generator) -> np.random.Generator:
@@ -1221,27 +1215,6 @@ class LegTracker:
         _ = y_left
         return lm.enforce_constraints(state[None])[0][0]
 
-    def _turned(self, frame: _Frame, square: FloatArray) -> FloatArray:
-        """``square`` (a detection's standing pose) with its pelvis turned about its centre by the angle at which the
-        two leg blobs lie one behind the other (the left blob farther back turns the left hip back), the hips
-        straight: a user standing turned against the walker, feet along the pelvis.  A stride puts the blobs one
-        behind the other too; the search weighs the two starts."""
-        sel, c = self._leg_blobs(frame)
-        mid_y = 0.5 * (c[0] + c[1])
-        lab = sel[:, 1] > mid_y
-        if not (np.any(lab) and np.any(~lab)):
-            return square
-        dx = float(np.median(sel[~lab, 0]) - np.median(sel[lab, 0]))  # right blob's x - left blob's x
-        r = float(square[L.HIP_DIST])
-        az = float(np.clip(math.atan2(dx, max(float(c[1] - c[0]), 0.05)), -_TURNED_MAX_AZ, _TURNED_MAX_AZ))
-        x = square.copy()
-        centre = square[L.ROOT_X : L.ROOT_Y + 1] + 0.5 * np.array([0.0, r])
-        x[L.HIP_AZ] = az
-        x[L.ROOT_X : L.ROOT_Y + 1] = centre - 0.5 * r * np.array([-math.sin(az), math.cos(az)])
-        for leg in (L.LEFT, L.RIGHT):
-            x[leg.start + L.HIP_FLEX] = 0.0
-        return lm.enforce_constraints(x[None])[0][0]
-
     def _forget_parts(self) -> None:
         """A new particle set's hidden-part state and footprints: nothing hidden, no footprint."""
         self._hidden = _HiddenState()
@@ -1254,17 +1227,13 @@ class LegTracker:
         self._x_prev = x.copy()
         self._low_conf = 0
 
-    def _search_fresh(self, frame: _Frame, rounds: int | None = None, turned_share: float = 0.0) -> FloatArray:
+    def _search_fresh(self, frame: _Frame, rounds: int | None = None) -> FloatArray:
         """Particles of a search from scratch: around the detection's standing pose, ``rounds`` (default
-        ``init_rounds``) rounds of every partition with shrinking noise; ``turned_share`` of them start from that
-        pose turned (:meth:`_turned`).  Reads the hidden-part state (a fresh one on (re-)init)."""
+        ``init_rounds``) rounds of every partition with shrinking noise.  Reads the hidden-part state (a fresh one
+        on (re-)init)."""
         cfg = self.config
         base = self._detect(frame)
         p = cfg.n_particles
-        n_turned = int(round(turned_share * p))
-        if n_turned:
-            base = np.repeat(base[None], p, axis=0)
-            base[p - n_turned :] = self._turned(frame, base[0])
         spread = np.zeros(lm.STATE_DIM)
         spread[L.ROOT_X] = 0.06
         spread[L.ROOT_Y] = 0.03
@@ -1296,7 +1265,7 @@ class LegTracker:
         self._hidden = _HiddenState()  # the search and the comparison see every part
         self.rng = self._redetect_rng
         try:
-            fresh = self._search_fresh(frame, self.config.redetect_rounds or None, self.config.redetect_turned_share)
+            fresh = self._search_fresh(frame, self.config.redetect_rounds or None)
             means = np.stack([self._weighted_mean(track_x, self._logw), fresh.mean(axis=0)])
             means, _, _ = lm.enforce_constraints(means)
             # two states only: all the foreground points (up to _REDETECT_POINTS) are affordable, so the comparison
