@@ -342,6 +342,9 @@ def make_leg_track(pose: LegPose, header: Any, *, particle_count: int = 0) -> An
         "confidence": float(pose.confidence),
         "effective_sample_size": float(pose.ess) if np.isfinite(pose.ess) else float("nan"),
         "particle_count": int(particle_count),
+        "hip": _side_points(pose.points[:, 0]),
+        "knee": _side_points(pose.points[:, 1]),
+        "ankle": _side_points(pose.points[:, 2]),
         "heel": _side_points(pose.points[:, 3]),
         "toe": _side_points(pose.points[:, 4]),
     }
@@ -355,7 +358,8 @@ def make_leg_track(pose: LegPose, header: Any, *, particle_count: int = 0) -> An
 
 
 def leg_pose_from_track(msg: Any) -> LegPose:
-    """Rebuild a :class:`LegPose` (points, segments, radii, visibility, status) from a ``LegTrack``."""
+    """Rebuild a :class:`LegPose` (points, segments, radii, visibility, status) from a ``LegTrack``: the points are
+    the message's reported ones (``hip`` ... ``toe``), not its segments' ends."""
     segs = np.empty((2, 3, 2, 3))
     radii = np.empty((2, 3, 2))
     vis = np.empty((2, 3))
@@ -368,11 +372,8 @@ def leg_pose_from_track(msg: Any) -> LegPose:
         vis[:, si] = getattr(msg, f"{seg}_visibility")
     points = np.empty((2, 5, 3))
     for s in range(2):
-        points[s, 0] = segs[s, 0, 0]
-        points[s, 1] = segs[s, 0, 1]
-        points[s, 2] = segs[s, 1, 1]
-        points[s, 3] = _xyz(msg.heel[s])
-        points[s, 4] = _xyz(msg.toe[s])
+        for j, name in enumerate(("hip", "knee", "ankle", "heel", "toe")):
+            points[s, j] = _xyz(getattr(msg, name)[s])
     return LegPose(
         stamp=stamp_to_s(msg.header.stamp),
         points=points,
