@@ -23,6 +23,7 @@ from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 
 from walker_gait.core.types import (
     JOINT_NAMES,
+    LEG_POINTS,
     SEGMENTS,
     CameraIntrinsics,
     FloorPlane,
@@ -342,12 +343,9 @@ def make_leg_track(pose: LegPose, header: Any, *, particle_count: int = 0) -> An
         "confidence": float(pose.confidence),
         "effective_sample_size": float(pose.ess) if np.isfinite(pose.ess) else float("nan"),
         "particle_count": int(particle_count),
-        "hip": _side_points(pose.points[:, 0]),
-        "knee": _side_points(pose.points[:, 1]),
-        "ankle": _side_points(pose.points[:, 2]),
-        "heel": _side_points(pose.points[:, 3]),
-        "toe": _side_points(pose.points[:, 4]),
     }
+    for j, name in enumerate(LEG_POINTS):  # the message's point fields are named as LEG_POINTS
+        kwargs[name] = _side_points(pose.points[:, j])
     for si, seg in enumerate(SEGMENTS):
         kwargs[f"{seg}_proximal"] = _side_points(segs[:, si, 0])
         kwargs[f"{seg}_distal"] = _side_points(segs[:, si, 1])
@@ -359,7 +357,7 @@ def make_leg_track(pose: LegPose, header: Any, *, particle_count: int = 0) -> An
 
 def leg_pose_from_track(msg: Any) -> LegPose:
     """Rebuild a :class:`LegPose` (points, segments, radii, visibility, status) from a ``LegTrack``: the points are
-    the message's reported ones (``hip`` ... ``toe``), not its segments' ends."""
+    the message's reported ones (its ``LEG_POINTS`` fields), not its segments' ends."""
     segs = np.empty((2, 3, 2, 3))
     radii = np.empty((2, 3, 2))
     vis = np.empty((2, 3))
@@ -372,7 +370,7 @@ def leg_pose_from_track(msg: Any) -> LegPose:
         vis[:, si] = getattr(msg, f"{seg}_visibility")
     points = np.empty((2, 5, 3))
     for s in range(2):
-        for j, name in enumerate(("hip", "knee", "ankle", "heel", "toe")):
+        for j, name in enumerate(LEG_POINTS):
             points[s, j] = _xyz(getattr(msg, name)[s])
     return LegPose(
         stamp=stamp_to_s(msg.header.stamp),
