@@ -7,7 +7,15 @@ import math
 import numpy as np
 import pytest
 
-from walker_gait.bench.endtoend import IN_VIEW_LEAD_S, IN_VIEW_TAIL_S, at_walker, recovery_time, steps_in_view
+from walker_gait.bench.endtoend import (
+    IN_VIEW_LEAD_S,
+    IN_VIEW_TAIL_S,
+    JOINT_KINDS,
+    angle_errors,
+    at_walker,
+    recovery_time,
+    steps_in_view,
+)
 from walker_gait.core.segmentation import RoiConfig
 from walker_gait.core.types import ANKLE, FloorPlane
 
@@ -85,3 +93,26 @@ def test_recovery_time_counts_from_the_start_frame_until_the_error_stays_low() -
     err[17] = 0.5  # the error never stays low for five frames after the start
     err[12:16] = 0.5
     assert recovery_time(stamps, err, start) == math.inf
+
+
+def test_angle_errors_pool_both_legs_per_angle_and_wrap_the_difference() -> None:
+    assert JOINT_KINDS == ("hip_flexion", "hip_abduction", "hip_rotation", "knee_flexion", "ankle_flexion",
+                           "ankle_inversion")
+    truth = np.zeros((4, 12))
+    est = np.zeros((4, 12))
+    est[:, 3] = np.radians(-10.0)  # left knee 10 deg straighter than the truth in every frame
+    est[:2, 9] = np.radians(4.0)  # right knee 4 deg more flexed in two frames, exact in two
+    truth[:, 2] = np.radians(179.0)
+    est[:, 2] = np.radians(-179.0)  # left hip rotation 2 deg off across the wrap, not 358
+    est[1, 4] = np.nan  # a left ankle without an estimate is left out of its angle only
+    truth[:, 10] = np.radians(5.0)
+    mae, bias = angle_errors(est, truth)
+    assert mae["knee_flexion"] == pytest.approx((4 * 10 + 2 * 4) / 8)
+    assert bias["knee_flexion"] == pytest.approx((-4 * 10 + 2 * 4) / 8)
+    assert mae["hip_rotation"] == pytest.approx(2 * 4 / 8) and bias["hip_rotation"] == pytest.approx(1.0)
+    assert mae["ankle_flexion"] == pytest.approx(4 * 5 / 7) and bias["ankle_flexion"] == pytest.approx(-4 * 5 / 7)
+    assert mae["hip_flexion"] == 0.0 and bias["ankle_inversion"] == 0.0
+    none_mae, _ = angle_errors(np.full((3, 12), np.nan), truth[:3])
+    assert all(math.isnan(v) for v in none_mae.values())
+    with pytest.raises(ValueError, match="shape"):
+        angle_errors(est, truth[:3])

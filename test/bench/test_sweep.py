@@ -150,6 +150,30 @@ def test_summarise_hand_built_errors() -> None:
     assert s["frames_over_10cm_at_walker_pct"] == 0.0
 
 
+def test_summarise_scores_the_joint_angles_of_runs_that_kept_the_true_ones() -> None:
+    from walker_gait.core.types import LegPose
+
+    r = _run()
+    t = len(r.stamps)
+    r.truth_angles = np.zeros((t, 12))
+    r.truth_angles[:, 3] = r.truth_angles[:, 9] = 0.3  # both knees flexed 0.3 rad
+    est = r.truth_angles.copy()
+    est[:, 3] -= np.radians(6.0)  # the left knee reported 6 deg straighter
+    r.poses = [LegPose(stamp=float(r.stamps[i]), points=r.est[i], angles=est[i]) for i in range(t)]
+    r.trackable[:30] = False  # only the trackable frames count
+    est[30:, 9] += np.radians(2.0)
+    s = sweep.summarise([r])
+    assert s["angle_err_deg"]["knee_flexion"] == pytest.approx((6 + 2) / 2)
+    assert s["angle_bias_deg"]["knee_flexion"] == pytest.approx((-6 + 2) / 2)
+    assert s["angle_err_deg"]["hip_flexion"] == 0.0
+    table = sweep.format_table({"x": {"per_tracker_seed": {0: s}}})
+    assert "| knee flexion err deg | 4.00 |" in table and "| knee flexion bias deg | -2.00 |" in table
+    # a run stored before the true angles were kept is left out, not scored against nothing
+    old = sweep.summarise([_run()])
+    assert math.isnan(old["angle_err_deg"]["knee_flexion"])
+    assert sweep.summarise([_run(), r])["angle_err_deg"]["knee_flexion"] == pytest.approx(4.0)
+
+
 def test_summary_errors_compare_the_session_cadence_and_speed_with_the_truth() -> None:
     """Cadence and gait speed of the session summary (the analyzer's confidence cuts) against the true steps'; a
     session without a walking step detected misses its figures (100 %)."""
@@ -300,6 +324,8 @@ def test_real_session_and_cli(tmp_path: Path, capsys: pytest.CaptureFixture[str]
     assert r.est.shape == r.truth.shape and r.trackable.all() and len(r.gt) >= 2
     s = sweep.summarise(runs)
     assert s["joint_err_cm"]["ankle"] < 15.0  # tracked, not lost
+    assert r.truth_angles.shape == (len(r.stamps), 12)
+    assert 0.0 < s["angle_err_deg"]["knee_flexion"] < 30.0  # scored against the session's own angles
     # the analyzer on the exact poses measures the true steps (its own error is sub-centimetre)
     exact = sweep.oracle(runs, (0, 1, 2, 3, 4))
     assert exact["matched_steps"] >= len(r.gt) - 1 and exact["step_length_mae_cm"] < 1.0

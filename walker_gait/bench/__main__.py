@@ -11,6 +11,7 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import datetime as dt
+import math
 import os
 import platform
 import sys
@@ -141,6 +142,18 @@ def section_endtoend(scenarios: tuple[str, ...], duration: float, seed: int) -> 
         if sc.scenario not in seen:
             seen.add(sc.scenario)
             lines.append(f"* {sc.scenario}: " + ", ".join(f"{p} {f(v, 0)} %" for p, v in sc.in_image_pct.items()))
+    from walker_gait.bench.endtoend import JOINT_KINDS
+
+    lines += ["", "`JointState` angles against the synthetic truth (the same frames as the joint errors, both legs pooled): "
+              "mean |error| (mean signed error: + = the reported angle is larger), degrees. The synthetic feet never "
+              "roll, so the true ankle inversion is 0 throughout.", "",
+              "| scenario | cue | " + " | ".join(k.replace("_", " ") for k in JOINT_KINDS) + " |",
+              "|" + "---|" * (2 + len(JOINT_KINDS))]
+    for sc in scores:
+        if sc.cue.startswith("combined"):
+            lines.append(f"| {sc.scenario} | {sc.cue} | " + " | ".join(
+                f"{f(sc.angle_err_deg.get(k, math.nan))} ({sc.angle_bias_deg.get(k, math.nan):+.1f})" for k in JOINT_KINDS)
+                + " |")
     return lines + [""], scores
 
 

@@ -18,7 +18,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from walker_gait.core.types import LEG_POINTS, FloorPlane, Step
+from walker_gait.core.types import JOINT_NAMES, LEG_POINTS, FloorPlane, Step
 
 if TYPE_CHECKING:
     from walker_gait.core.segmentation import RoiConfig
@@ -54,6 +54,8 @@ class Score:
     recovery_s: float = float("nan")  # from the user's arrival at the walker (:func:`recovery_time`)
     recovery_in_image_s: float = float("nan")  # from the user's first frame in the image, wherever
     in_image_pct: dict[str, float] = field(default_factory=dict)  # frames where the true point is in the image
+    angle_err_deg: dict[str, float] = field(default_factory=dict)  # JointState angles: mean |error| (:func:`angle_errors`)
+    angle_bias_deg: dict[str, float] = field(default_factory=dict)  # ... and mean signed error
     tracker_first_ms: float = float("nan")  # the first frame (initial search)
     tracker_ms_after_first: float = float("nan")  # mean over the frames after it
 
@@ -88,6 +90,34 @@ def at_walker(truth: np.ndarray, floor: FloorPlane, roi: RoiConfig | None = None
         inside = ((pw[..., 0] >= r.near) & (pw[..., 0] <= r.forward)
                   & (pw[..., 1] <= r.left + r.center_max_shift) & (pw[..., 1] >= -(r.right + r.center_max_shift)))
     return np.asarray(inside.all(axis=1), dtype=bool)
+
+
+JOINT_KINDS: tuple[str, ...] = tuple(name.removeprefix("left_") for name in JOINT_NAMES[: len(JOINT_NAMES) // 2])
+"""The ``JointState`` angles of one leg (``hip_flexion`` ... ``ankle_inversion``), both sides' names without the side."""
+
+
+def angle_errors(est: np.ndarray, truth: np.ndarray) -> tuple[dict[str, float], dict[str, float]]:
+    """``JointState`` angle errors: per angle of :data:`JOINT_KINDS`, the mean |estimate − truth| and the mean signed
+    error (estimate − truth), degrees, both legs pooled (the names' sign conventions are anatomical, the same for
+    either leg).
+
+    ``est`` and ``truth`` are ``(F, 12)`` angles in ``JOINT_NAMES`` order, radians, over the frames to score;
+    differences are wrapped to (−180, 180] deg, and an angle that is NaN in either is left out of its own figures
+    (NaN when none is left)."""
+    est = np.asarray(est, dtype=float).reshape(-1, len(JOINT_NAMES))
+    truth = np.asarray(truth, dtype=float).reshape(-1, len(JOINT_NAMES))
+    if est.shape != truth.shape:
+        msg = f"estimated and true angles differ in shape: {est.shape} vs {truth.shape}"
+        raise ValueError(msg)
+    d = np.degrees(np.angle(np.exp(1j * (est - truth))))
+    n = len(JOINT_KINDS)
+    pooled = np.concatenate([d[:, :n], d[:, n:]])  # (2F, 6): left frames, then right
+    mae, bias = {}, {}
+    for k, name in enumerate(JOINT_KINDS):
+        v = pooled[:, k][np.isfinite(pooled[:, k])]
+        mae[name] = float(np.abs(v).mean()) if v.size else math.nan
+        bias[name] = float(v.mean()) if v.size else math.nan
+    return mae, bias
 
 
 RECOVERY_ERR_M = 0.10
@@ -291,6 +321,9 @@ def evaluate(session: Any, *, preset: str = "default", cue: str | None = None, s
         warnings.filterwarnings("ignore", message="Mean of empty slice", category=RuntimeWarning)
         if vis.any():
             score.joint_err_cm = {name: float(np.nanmean(err[vis][:, :, k]) * 100) for k, name in enumerate(LEG_POINTS)}
+            est_angles = np.stack([np.asarray(p.angles, dtype=float) for p in poses])
+            score.angle_err_deg, score.angle_bias_deg = angle_errors(est_angles[vis],
+                                                                     np.asarray(session.body.angles[:n])[vis])
             per_frame = np.nanmean(err[vis], axis=(1, 2))
             score.frames_over_10cm_pct = float(np.mean(~(per_frame <= 0.10)) * 100)
             lower = slice(1, 5)  # knee..toe: the observable points

@@ -52,7 +52,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from walker_gait.core.smoothing import PassTrack
-from walker_gait.core.types import ANKLE, HEEL, LEG_POINTS, TOE, FloorPlane, LegPose, Step, TrackStatus
+from walker_gait.core.types import ANKLE, HEEL, JOINT_NAMES, LEG_POINTS, TOE, FloorPlane, LegPose, Step, TrackStatus
 
 if TYPE_CHECKING:
     from walker_gait.core.gait import GaitConfig
@@ -82,6 +82,7 @@ class SessionRun:
     poses: list[LegPose] = field(default_factory=list, repr=False)  # the pipeline's tracked poses, per frame
     floors: list[FloorPlane] = field(default_factory=list, repr=False)  # the floor the pipeline estimated, per frame
     passes: tuple[PassTrack, ...] = field(default=(), repr=False)  # two passes: forward and backward, before merging
+    truth_angles: np.ndarray = field(default_factory=lambda: np.zeros((0, len(JOINT_NAMES))), repr=False)  # (T, 12) rad; empty in runs stored before it was kept
 
     @property
     def scenario(self) -> str:
@@ -194,7 +195,8 @@ def run_session(scenario: str, seed: int, *, duration: float, tracker_seeds: tup
             floor_offset=float(floor.offset),
             gt=gt, det=run.steps, pairs=pairs,
             tracker_ms=float(np.mean(run.tracker_ms[1:])) if n > 1 else float("nan"),
-            poses=run.poses, floors=run.floors, passes=tuple(run.passes)))
+            poses=run.poses, floors=run.floors, passes=tuple(run.passes),
+            truth_angles=np.asarray(session.body.angles[:n], dtype=float)))
     return out
 
 
@@ -374,6 +376,25 @@ def _trailing_toe(runs: list[SessionRun]) -> dict[str, float]:
             "trailing_toe_mean_cm": float(np.mean(e)) if e.size else math.nan}
 
 
+def _angle_errors(runs: list[SessionRun]) -> dict[str, dict[str, float]]:
+    """``JointState`` angles against the truth over the trackable frames (as the joint errors), both legs pooled:
+    mean |error| and bias, degrees (:func:`~walker_gait.bench.endtoend.angle_errors`); runs stored without the true
+    angles are left out (all NaN when none has them)."""
+    from walker_gait.bench.endtoend import JOINT_KINDS, angle_errors
+
+    est, truth = [], []
+    for r in runs:
+        if len(r.truth_angles) != len(r.stamps) or len(r.poses) != len(r.stamps):
+            continue
+        est.append(np.stack([np.asarray(p.angles, dtype=float) for p in r.poses])[r.trackable])
+        truth.append(r.truth_angles[r.trackable])
+    if not est:
+        nan = dict.fromkeys(JOINT_KINDS, math.nan)
+        return {"angle_err_deg": nan, "angle_bias_deg": dict(nan)}
+    mae, bias = angle_errors(np.concatenate(est), np.concatenate(truth))
+    return {"angle_err_deg": mae, "angle_bias_deg": bias}
+
+
 SWAP_MARGIN_M = 0.05
 """A frame's legs count as swapped when the tracked feet (ankle, heel, toe) fit the other side's true feet better, by
 this much on average, than their own."""
@@ -449,6 +470,7 @@ def summarise(runs: list[SessionRun]) -> dict[str, Any]:
                recall=matched / gt if gt else math.nan,
                recall_in_view=matched_in_view / in_view if in_view else math.nan,
                gt_steps_in_image=in_image, recall_in_image=matched_in_image / in_image if in_image else math.nan)
+    out.update(_angle_errors(runs))
     out.update(_swaps(runs))
     out.update(_step_errors(runs))
     out.update(_summary_errors(runs))
@@ -493,7 +515,7 @@ def report(runs: list[SessionRun], *, with_oracle: bool = False, gait: GaitConfi
     for sc in dict.fromkeys(r.scenario for r in runs):
         sub = [r for r in runs if r.scenario == sc]
         s = summarise(sub)
-        out["per_scenario"][sc] = {k: s[k] for k in ("joint_err_cm", "frames_over_10cm_pct", "matched_steps", "gt_steps",
+        out["per_scenario"][sc] = {k: s[k] for k in ("joint_err_cm", "angle_err_deg", "angle_bias_deg", "frames_over_10cm_pct", "matched_steps", "gt_steps",
                                                      "step_length_mae_cm", "step_length_bias_cm", "step_width_mae_cm",
                                                      "confident_share", "step_length_mae_confident_cm",
                                                      "cadence_abs_err_pct", "speed_abs_err_pct",
@@ -506,7 +528,12 @@ def report(runs: list[SessionRun], *, with_oracle: bool = False, gait: GaitConfi
 
 _ROWS = (("heel err cm", ("joint_err_cm", "heel")), ("toe err cm", ("joint_err_cm", "toe")),
          ("ankle err cm", ("joint_err_cm", "ankle")), ("knee err cm", ("joint_err_cm", "knee")),
-         ("hip err cm", ("joint_err_cm", "hip")), ("frames > 10 cm %", ("frames_over_10cm_pct",)),
+         ("hip err cm", ("joint_err_cm", "hip")),
+         ("hip flexion err deg", ("angle_err_deg", "hip_flexion")), ("hip flexion bias deg", ("angle_bias_deg", "hip_flexion")),
+         ("knee flexion err deg", ("angle_err_deg", "knee_flexion")),
+         ("knee flexion bias deg", ("angle_bias_deg", "knee_flexion")),
+         ("ankle flexion err deg", ("angle_err_deg", "ankle_flexion")),
+         ("frames > 10 cm %", ("frames_over_10cm_pct",)),
          ("frames > 10 cm at the walker %", ("frames_over_10cm_at_walker_pct",)),
          ("swapped frames %", ("swapped_frames_pct",)), ("runs with swaps", ("runs_with_swaps",)),
          ("good-frame heel cm", ("good_frame_err_cm", "heel")), ("good-frame toe cm", ("good_frame_err_cm", "toe")),
