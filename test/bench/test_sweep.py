@@ -171,6 +171,9 @@ def test_summarise_scores_the_joint_angles_of_runs_that_kept_the_true_ones() -> 
     # a run stored before the true angles were kept is left out, not scored against nothing
     old = sweep.summarise([_run()])
     assert math.isnan(old["angle_err_deg"]["knee_flexion"])
+    pickled_before = _run()
+    del pickled_before.truth_angles  # unpickled from a file written before the field existed
+    assert math.isnan(sweep.summarise([pickled_before])["angle_err_deg"]["knee_flexion"])
     assert sweep.summarise([_run(), r])["angle_err_deg"]["knee_flexion"] == pytest.approx(4.0)
 
 

@@ -56,7 +56,8 @@ def test_presets() -> None:
                 {"heel_rise_dorsiflexion": float("nan")}, {"footprint_sigma": 0.0}, {"footprint_sigma_growth": -0.1},
                 {"footprint_max_s": 0.0}, {"blank_view_share": 0.0}, {"blank_view_share": 1.5},
                 {"cue2d_focal": -1.0}, {"cue2d_focal": float("inf")}, {"redetect_every_s": -1.0},
-                {"redetect_every_s": float("nan")}, {"redetect_margin": -0.5}, {"redetect_rounds": -1}):
+                {"redetect_every_s": float("nan")}, {"redetect_margin": -0.5}, {"redetect_rounds": -1},
+                {"root_compensation": -0.1}, {"root_compensation": 1.5}):
         with pytest.raises(ValueError):
             preset("default", **bad)
 
@@ -1174,3 +1175,64 @@ def test_standing_feet_are_reported_on_the_floor_whatever_the_particles_spread_o
     soles = lm.sole_heights(lm.forward_kinematics(x)).mean(axis=0)
     np.testing.assert_allclose(heels[(0.14, 0.28)], soles, atol=2e-4)
     assert np.all(heels[(0.14, 0.28)] < 0.5 * heels[(0.0, 0.0)]), heels
+
+
+def _walking_state() -> np.ndarray:
+    """A mid-stride pose: left leg forward with its knee bent, right leg behind, nearly straight."""
+    x = lm.neutral_state(right_hip_xy=(-0.85, -0.09), hip_dist=0.18)
+    left, right = lm.L.leg(0), lm.L.leg(1)
+    x[left.start + lm.L.HIP_FLEX], x[left.start + lm.L.KNEE_FLEX] = 0.3, 0.2
+    x[right.start + lm.L.HIP_FLEX], x[right.start + lm.L.KNEE_FLEX] = -0.15, 0.1
+    return lm.enforce_constraints(x[None])[0][0]
+
+
+def test_root_compensation_moves_the_hips_and_keeps_the_feet() -> None:
+    """With `root_compensation` a random move of the pelvis over the floor (root x/y, azimuth) comes with the leg-angle
+    change that keeps each leg's ankle, heel, toe and lower calf in place: the hips go where the noise takes them and
+    the seen parts stay (to the linearisation's error); without it the feet go with the hips."""
+    x = np.repeat(_walking_state()[None], 400, axis=0)
+    root = np.zeros(lm.STATE_DIM, dtype=bool)
+    root[lm.L.ROOT_X] = root[lm.L.ROOT_Y] = root[lm.L.HIP_AZ] = True
+    spread = {}
+    for on in (False, True):
+        tr = LegTracker(preset("default", root_compensation=on), KINECT, rng=np.random.default_rng(3))
+        comp = tr._root_compensation(x) if on else None
+        moved, _, delta = tr._diffuse(x, root, 2.0, comp)
+        assert (delta is None) == (not on)
+        p0, p1 = lm.forward_kinematics(x[:1]).points[0], lm.forward_kinematics(moved).points
+        hips = np.linalg.norm(p1[:, :, 0] - p0[:, 0], axis=-1).mean()
+        feet = np.linalg.norm(p1[:, :, ANKLE : TOE + 1] - p0[:, ANKLE : TOE + 1], axis=-1).mean()
+        spread[on] = (hips, feet)
+        if on:  # the angle change returned is the one the particles took, where no joint limit clipped it
+            took = np.isclose(delta[:, lm.L.ANGLES], moved[:, lm.L.ANGLES] - x[:, lm.L.ANGLES], atol=1e-9).all(axis=1)
+            assert took.mean() > 0.8 and not delta[:, : lm.L.ANGLES.start].any()
+    assert spread[True][0] == pytest.approx(spread[False][0], rel=0.05) and spread[False][0] > 0.01  # hips move alike
+    assert spread[False][1] > 0.6 * spread[False][0]  # the feet go with the hips ...
+    assert spread[True][1] < 0.2 * spread[False][1]  # ... unless the legs take the move
+    # a share of the particles: that many rows, spread evenly, take the change; the others move the whole body
+    tr = LegTracker(preset("default", root_compensation=0.25), KINECT, rng=np.random.default_rng(3))
+    _, _, delta = tr._diffuse(x, root, 2.0, tr._root_compensation(x))
+    took = np.abs(delta).max(axis=1) > 0
+    assert took.sum() == 100 and took[:8].sum() == 2 and took[-8:].sum() == 2
+
+
+def test_root_compensation_keeps_the_velocity_of_the_legs() -> None:
+    """The angle change that offsets a pelvis move is not motion: the previous frame's particles take it too, so the
+    constant-velocity prediction of the next frame is what it would have been."""
+    f = own_sequence(n_frames=1, rng=np.random.default_rng(2)).frames[0]
+    tr = LegTracker(preset("default", n_particles=32, root_compensation=True), KINECT, rng=np.random.default_rng(0))
+    base = _walking_state()
+    for side in (0, 1):  # knees well inside their limits, so that no change is clipped
+        base[lm.L.leg(side).start + lm.L.KNEE_FLEX] = 0.6
+    x = np.repeat(base[None], 32, axis=0)
+    prev = x.copy()
+    prev[:, lm.L.ANGLES] -= 0.01  # every angle moving at 0.01 rad a frame
+    tr._x_prev = prev.copy()
+    root = np.zeros(lm.STATE_DIM, dtype=bool)
+    root[lm.L.ROOT_X] = root[lm.L.ROOT_Y] = True
+    tr._stages = lambda: [(root, (0, 1), None)]  # one root-only stage
+    # the final layer is kept unresampled, so its rows still pair with `x` and `prev`
+    new = tr._run_stages(tr._prepare(f.points, f.depth, f.floor), x, gain=1.0, layers=1, betas=(1.0,), final=True)
+    a = lm.L.ANGLES
+    assert (np.abs(new[:, a] - x[:, a]).max(axis=1) > 1e-4).all()  # the legs took the pelvis's moves ...
+    np.testing.assert_allclose(new[:, a] - tr._x_prev[:, a], 0.01, atol=1e-9)  # ... and kept their velocity

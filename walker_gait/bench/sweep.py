@@ -384,10 +384,11 @@ def _angle_errors(runs: list[SessionRun]) -> dict[str, dict[str, float]]:
 
     est, truth = [], []
     for r in runs:
-        if len(r.truth_angles) != len(r.stamps) or len(r.poses) != len(r.stamps):
+        true_angles = getattr(r, "truth_angles", None)  # runs pickled before the field existed lack the attribute
+        if true_angles is None or len(true_angles) != len(r.stamps) or len(r.poses) != len(r.stamps):
             continue
         est.append(np.stack([np.asarray(p.angles, dtype=float) for p in r.poses])[r.trackable])
-        truth.append(r.truth_angles[r.trackable])
+        truth.append(true_angles[r.trackable])
     if not est:
         nan = dict.fromkeys(JOINT_KINDS, math.nan)
         return {"angle_err_deg": nan, "angle_bias_deg": dict(nan)}

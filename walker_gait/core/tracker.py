@@ -188,6 +188,16 @@ _UNSUPPORTED_MAX = 0.1  # a leg's calf + foot with at most this share of their c
 _REDETECT_POINTS = 2048
 """Most foreground points a re-detection's comparison of the fresh estimate with the track's weighs."""
 
+_COMPENSATED_ROOT = (StateLayout.ROOT_X, StateLayout.ROOT_Y, StateLayout.HIP_AZ)
+"""State dims whose random moves ``root_compensation`` offsets in the legs' angles: the pelvis's place and turn over the
+floor (its height follows the floor contact)."""
+_COMPENSATION_CALF = 0.4
+"""Point of the calf that ``root_compensation`` holds, as a fraction of the way from the ankle to the knee (the part of
+the shank a camera at the walker sees)."""
+_COMPENSATION_DAMPING = 1e-3
+"""Damping (m²/rad²) of ``root_compensation``'s least-squares solve: a leg whose angles barely move its held points
+(a straight leg's knee) is not turned far for them."""
+
 
 class TrackerInputError(ValueError):
     """Malformed input to :meth:`LegTracker.update` (shapes, dtypes, invalid floor)."""
@@ -222,6 +232,7 @@ class TrackerConfig:
     hidden_search_unexplained: float = 0.2  # unexplained foreground share that starts that search ...
     hidden_search_frames: int = 3  # ... once it has lasted this many frames in a row
     hidden_leg_first: bool = False  # partitioned sampling draws a leg whose calf and foot are HIDDEN before the other one (false: left, then right, always; paper)
+    root_compensation: float = 0.0  # share of the particles whose random move of the pelvis over the floor (right hip x/y, pelvis azimuth) comes with the leg-angle change that keeps each leg's ankle, heel, toe and lower calf where they were (least squares, linearised at the particles' mean), so the out-of-view hips can move without dragging the seen feet; the rest move the whole body as before (0 = none, paper)
     hidden_velocity_damping: float = 1.0  # factor on the joint-angle velocity of a leg whose calf and foot are HIDDEN, on top of `velocity_damping` (1 = as any leg, paper; 0 = hold its pose)
     footprint_sigma: float = math.inf  # m, Gaussian prior on the toe (floor plane) of a HIDDEN foot that was planted when last seen, around that footprint carried along by the floor's motion in the walker frame (inf = none, paper)
     footprint_sigma_growth: float = 0.1  # m/s, growth of that prior's std-dev with the time since the foot was last seen
@@ -296,6 +307,8 @@ class TrackerConfig:
                              f"{self.hidden_search_share}, {self.hidden_search_unexplained}")
         if not 0.0 < self.blank_view_share <= 1.0:
             raise ValueError(f"blank_view_share must be in (0, 1], got {self.blank_view_share}")
+        if not 0.0 <= self.root_compensation <= 1.0:
+            raise ValueError(f"root_compensation must be a share in [0, 1], got {self.root_compensation}")
         if not (self.redetect_every_s >= 0 and math.isfinite(self.redetect_every_s) and self.redetect_margin >= 0
                 and self.redetect_rounds >= 0):
             raise ValueError("redetect_every_s must be finite and >= 0 (0 = never), redetect_margin and redetect_rounds "
@@ -1021,15 +1034,51 @@ class LegTracker:
         w = normalise_log_weights(logw)
         return w @ states
 
-    def _diffuse(self, x: FloatArray, dims: np.ndarray, gain: float | FloatArray) -> tuple[FloatArray, Kinematics]:
+    def _diffuse(self, x: FloatArray, dims: np.ndarray, gain: float | FloatArray,
+                 comp: FloatArray | None = None) -> tuple[FloatArray, Kinematics, FloatArray | None]:
+        """Particles moved by the transition noise of ``dims``; with ``comp`` (:meth:`_root_compensation`) the legs'
+        angles also take the change that offsets the pelvis's move.  Returns the particles, their kinematics and that
+        angle change (``(P, 23)``, None without ``comp``)."""
         sigma = np.where(dims, self._noise, 0.0)
         noise = self.rng.standard_normal(x.shape) * sigma
         if np.ndim(gain) == 1:
             noise *= gain
         else:
             noise *= float(gain)  # type: ignore[arg-type]
+        delta = None
+        if comp is not None and dims[list(_COMPENSATED_ROOT)].any():
+            delta = np.zeros_like(noise)
+            delta[:, L.ANGLES] = noise[:, list(_COMPENSATED_ROOT)] @ comp.T
+            share = self.config.root_compensation
+            if share < 1.0:  # an even spread of the rows, without a draw (the resampled rows are in no order that matters)
+                i = np.arange(x.shape[0])
+                delta[np.floor((i + 1) * share) == np.floor(i * share)] = 0.0
+            noise += delta
         new, kin, _ = lm.enforce_constraints(x + noise, fallback=x)
-        return new, kin
+        return new, kin, delta
+
+    def _root_compensation(self, x: FloatArray) -> FloatArray:
+        """``(12, 3)`` leg-angle change per unit move of the root dims ``_COMPENSATED_ROOT`` that keeps, in the least
+        squares sense, each leg's ankle, heel, toe and a point on its lower calf where they are: finite differences of
+        the forward kinematics at the particles' mean ``x``, a damped least-squares solve per leg."""
+        ref = self._mean_estimate(x)
+        eps = 1e-4
+        cols = [*_COMPENSATED_ROOT, *range(L.ANGLES.start, L.ANGLES.stop)]
+        states = np.repeat(ref[None], 1 + len(cols), axis=0)
+        states[np.arange(1, 1 + len(cols)), cols] += eps
+        pts = lm.forward_kinematics(states).points  # (1 + n, 2, 5, 3)
+        held = np.concatenate([pts[:, :, ANKLE : TOE + 1],
+                               (pts[:, :, ANKLE] + _COMPENSATION_CALF * (pts[:, :, KNEE] - pts[:, :, ANKLE]))[:, :, None]],
+                              axis=2).reshape(1 + len(cols), 2, -1)  # (1 + n, 2 legs, 12)
+        jac = (held[1:] - held[0]) / eps  # (n, 2, 12)
+        nr = len(_COMPENSATED_ROOT)
+        out = np.zeros((12, nr))
+        for side in (0, 1):
+            j_root = jac[:nr, side].T  # (12 outputs, nr)
+            j_leg = jac[nr + 6 * side : nr + 6 * side + 6, side].T  # (12 outputs, 6 angles of this leg)
+            lhs = j_leg.T @ j_leg + _COMPENSATION_DAMPING * np.eye(6)
+            out[6 * side : 6 * side + 6] = -np.linalg.solve(lhs, j_leg.T @ j_root)
+        return out
 
     def _leg_gain(self) -> FloatArray:
         g = np.ones(lm.STATE_DIM)
@@ -1075,6 +1124,7 @@ class LegTracker:
         """
         cfg = self.config
         stages = self._stages()
+        comp = self._root_compensation(x) if cfg.root_compensation > 0 else None
         for k, (dims, legs, ref_leg) in enumerate(stages):
             ref = None
             if ref_leg is not None:
@@ -1083,7 +1133,10 @@ class LegTracker:
             b = betas[-n_layers:]
             for layer in range(n_layers):
                 layer_gain = gain * cfg.layer_noise_decay**layer
-                x_new, kin = self._diffuse(x, dims, layer_gain)
+                x_new, kin, delta = self._diffuse(x, dims, layer_gain, comp)
+                if delta is not None and self._x_prev is not None:
+                    # the legs' angles changed to offset the pelvis's move, not by moving: their velocity stays
+                    self._x_prev = self._x_prev + delta
                 # coarse layers may skip the 2D cue of the combined likelihood (`fine_2d_only`)
                 use_2d = not (cfg.fine_2d_only and layer < n_layers - 1)
                 ll = self._evaluate(frame, x_new, legs=legs, ref=ref, kin=kin, use_2d=use_2d)
@@ -1122,7 +1175,10 @@ class LegTracker:
         if cfg.partitioned or cfg.n_layers > 1:
             x = self._run_stages(frame, x_pred, gain=gain, layers=cfg.n_layers, betas=cfg.anneal_betas, final=True)
         else:
-            x, _ = self._diffuse(x_pred, np.ones(lm.STATE_DIM, dtype=bool), gain)
+            comp = self._root_compensation(x_pred) if cfg.root_compensation > 0 else None
+            x, _, delta = self._diffuse(x_pred, np.ones(lm.STATE_DIM, dtype=bool), gain, comp)
+            if delta is not None and self._x_prev is not None:
+                self._x_prev = self._x_prev + delta
         self._x = x
         self._hidden.boost = np.maximum(self._hidden.boost - 1, 0)
 
