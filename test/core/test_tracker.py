@@ -480,7 +480,9 @@ def test_hidden_leg_search_redraws_only_that_leg_and_keeps_constraints(seq) -> N
     x = tr.particles.copy()
     out = tr._search_hidden_leg(x, 1)
     changed = np.any(out != x, axis=1)
-    assert 0.15 * 200 <= changed.sum() <= 0.25 * 200  # the share, less draws that found no valid pose
+    # the share, less draws that found no valid pose in four tries (a third to a half of them from a track two frames
+    # old, depending on the tracker seed)
+    assert 0.1 * 200 <= changed.sum() <= 0.25 * 200
     keep = np.ones(lm.STATE_DIM, dtype=bool)
     keep[L.RIGHT] = False
     keep[L.ROOT_Z] = False
@@ -488,7 +490,8 @@ def test_hidden_leg_search_redraws_only_that_leg_and_keeps_constraints(seq) -> N
     assert np.all(np.abs(out[:, L.ROOT_Z] - x[:, L.ROOT_Z]) < 0.02)  # the other foot stays on the floor
     assert not lm.constraint_violations(out).any()
     spread = out[changed][:, L.RIGHT.start + L.HIP_FLEX]
-    assert np.ptp(spread) > 0.8  # drawn across the walking range, not diffused
+    assert np.ptp(spread) > 2.0 * np.ptp(x[:, L.RIGHT.start + L.HIP_FLEX])  # drawn across the walking range, not diffused
+    assert np.ptp(spread) > 0.5
     # the same generator state gives the same draws
     tr2 = LegTracker(preset("default", n_particles=200, hidden_search_share=0.25), KINECT, rng=np.random.default_rng(0))
     _run(tr2, seq.frames[:2])
@@ -1214,6 +1217,21 @@ def test_root_compensation_moves_the_hips_and_keeps_the_feet() -> None:
     _, _, delta = tr._diffuse(x, root, 2.0, tr._root_compensation(x))
     took = np.abs(delta).max(axis=1) > 0
     assert took.sum() == 100 and took[:8].sum() == 2 and took[-8:].sum() == 2
+
+
+def test_root_compensation_leaves_a_hidden_leg_to_move_with_the_pelvis() -> None:
+    """A leg whose calf and foot nobody sees has nothing to hold: its angles take no change (its particles may be being
+    drawn afresh by the hidden-leg search, whose mean is no pose to linearise at); the seen leg's still do."""
+    x = np.repeat(_walking_state()[None], 8, axis=0)
+    tr = LegTracker(preset("default", root_compensation=1.0), KINECT, rng=np.random.default_rng(0))
+    both = tr._root_compensation(x)
+    assert np.abs(both[:6]).max() > 0.1 and np.abs(both[6:]).max() > 0.1
+    tr._hidden.hidden[0, 1:] = True  # the left calf and foot HIDDEN
+    left_hidden = tr._root_compensation(x)
+    assert not left_hidden[:6].any()
+    np.testing.assert_allclose(left_hidden[6:], both[6:])
+    tr._hidden.hidden[0, 1] = False  # only its foot hidden: the leg is still held
+    np.testing.assert_allclose(tr._root_compensation(x), both)
 
 
 def test_root_compensation_keeps_the_velocity_of_the_legs() -> None:

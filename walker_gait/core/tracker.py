@@ -54,6 +54,13 @@ lives in the floor-aligned *body* frame of :mod:`walker_gait.core.leg_model`):
    ``feet_crossing_sigma`` (``default``) is a half-Gaussian against crossed feet: across the pelvis the
    left foot's centre lies left of the right foot's (no synthetic session's feet ever cross; tracked ones
    did in 3.5 % of the frames, up to 30 cm, and in half of those with left and right swapped);
+   With ``root_compensation`` (``default``) the root stage's random moves of the pelvis over the floor (right hip
+   x/y, pelvis azimuth) come with the legs' angle change that keeps each ankle, heel, toe and lower calf where it
+   was (damped least squares on the forward kinematics' Jacobian at the particles' mean, the previous frame's
+   particles taking the same change so that the legs' velocity stays): the hips and knees are out of view, and a
+   pelvis move that dragged the seen feet along was weighed down at once, so the pelvis stayed where the first
+   frames put it (6 cm ahead of the centre of the feet, thighs 6° and knees 7° straighter than the real ones);
+   moved this way it explores the poses that explain the same data, and ``pelvis_prior_sigma`` decides among them;
    With ``elliptic_foot`` (``default``) both cues see each foot as a half-ellipse as wide as a shoe
    (``leg_model.FOOT_HALF_WIDTH``) and as tall as the foot radius instead of the paper's
    half-cylinder, which is twice as wide at the heel: the silhouette and the surface's depth
@@ -417,7 +424,8 @@ DEFAULT = TrackerConfig(
     foot_pitch_prior_sigma=0.3,
     heel_rise_dorsiflexion=0.175,
     foot_roll_prior_sigma=0.1,
-    pelvis_prior_sigma=(0.12, 0.06),
+    pelvis_prior_sigma=(0.06, 0.06),
+    root_compensation=1.0,
     feet_crossing_sigma=0.03,
     elliptic_foot=True,
     toe_from_data=True,
@@ -1060,7 +1068,8 @@ class LegTracker:
     def _root_compensation(self, x: FloatArray) -> FloatArray:
         """``(12, 3)`` leg-angle change per unit move of the root dims ``_COMPENSATED_ROOT`` that keeps, in the least
         squares sense, each leg's ankle, heel, toe and a point on its lower calf where they are: finite differences of
-        the forward kinematics at the particles' mean ``x``, a damped least-squares solve per leg."""
+        the forward kinematics at the particles' mean ``x``, a damped least-squares solve per leg (none for a leg
+        whose calf and foot are HIDDEN)."""
         ref = self._mean_estimate(x)
         eps = 1e-4
         cols = [*_COMPENSATED_ROOT, *range(L.ANGLES.start, L.ANGLES.stop)]
@@ -1074,6 +1083,10 @@ class LegTracker:
         nr = len(_COMPENSATED_ROOT)
         out = np.zeros((12, nr))
         for side in (0, 1):
+            if self._hidden.hidden[side, 1:].all():
+                # a leg whose calf and foot nobody sees has nothing to hold: it moves with the pelvis, and where its
+                # particles are being drawn afresh (`hidden_search_share`) the mean is no pose to linearise at
+                continue
             j_root = jac[:nr, side].T  # (12 outputs, nr)
             j_leg = jac[nr + 6 * side : nr + 6 * side + 6, side].T  # (12 outputs, 6 angles of this leg)
             lhs = j_leg.T @ j_leg + _COMPENSATION_DAMPING * np.eye(6)
