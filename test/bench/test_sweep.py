@@ -253,6 +253,13 @@ def test_reanalyse_runs_the_gait_analyzer_on_the_kept_poses(tmp_path: Path, caps
         sweep.reanalyse([replace(run, poses=[])])
     sweep.save_runs([run], tmp_path / "runs.pkl")
     assert sweep.load_runs(tmp_path / "runs.pkl")[0].key == "normal:1"
+    # a file written before a field existed: its runs load with that field's default and re-analyse as before
+    old = replace(run)
+    del old.truth_angles
+    sweep.save_runs([old], tmp_path / "old.pkl")
+    loaded = sweep.load_runs(tmp_path / "old.pkl")[0]
+    assert loaded.truth_angles.shape == (0, 12)
+    assert len(sweep.reanalyse([loaded])[0].pairs) == len(sim.steps)
     # CLI
     assert sweep.main(["--reanalyse", str(tmp_path), "--out", str(tmp_path / "re")]) == 0
     summary = json.loads((tmp_path / "re" / "summary.json").read_text())

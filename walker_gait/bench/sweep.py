@@ -258,6 +258,10 @@ def load_runs(path: Path) -> list[SessionRun]:
         runs = pickle.load(fh)  # noqa: S301 - our own output
     if not isinstance(runs, list) or not all(isinstance(r, SessionRun) for r in runs):
         raise ValueError(f"{path} does not hold sweep runs")
+    for r in runs:  # runs pickled before a field existed lack it: give them its default, so `replace` and the rest work
+        for f in dataclasses.fields(SessionRun):
+            if not hasattr(r, f.name) and f.default_factory is not dataclasses.MISSING:
+                setattr(r, f.name, f.default_factory())
     return runs
 
 
@@ -384,7 +388,7 @@ def _angle_errors(runs: list[SessionRun]) -> dict[str, dict[str, float]]:
 
     est, truth = [], []
     for r in runs:
-        true_angles = getattr(r, "truth_angles", None)  # runs pickled before the field existed lack the attribute
+        true_angles = getattr(r, "truth_angles", None)  # a run built by hand without it, or one unpickled elsewhere
         if true_angles is None or len(true_angles) != len(r.stamps) or len(r.poses) != len(r.stamps):
             continue
         est.append(np.stack([np.asarray(p.angles, dtype=float) for p in r.poses])[r.trackable])
