@@ -480,9 +480,7 @@ def test_hidden_leg_search_redraws_only_that_leg_and_keeps_constraints(seq) -> N
     x = tr.particles.copy()
     out = tr._search_hidden_leg(x, 1)
     changed = np.any(out != x, axis=1)
-    # the share, less draws that found no valid pose in four tries (a third to a half of them from a track two frames
-    # old, depending on the tracker seed)
-    assert 0.1 * 200 <= changed.sum() <= 0.25 * 200
+    assert 0.15 * 200 <= changed.sum() <= 0.25 * 200  # the share, less draws that found no valid pose
     keep = np.ones(lm.STATE_DIM, dtype=bool)
     keep[L.RIGHT] = False
     keep[L.ROOT_Z] = False
@@ -490,8 +488,7 @@ def test_hidden_leg_search_redraws_only_that_leg_and_keeps_constraints(seq) -> N
     assert np.all(np.abs(out[:, L.ROOT_Z] - x[:, L.ROOT_Z]) < 0.02)  # the other foot stays on the floor
     assert not lm.constraint_violations(out).any()
     spread = out[changed][:, L.RIGHT.start + L.HIP_FLEX]
-    assert np.ptp(spread) > 2.0 * np.ptp(x[:, L.RIGHT.start + L.HIP_FLEX])  # drawn across the walking range, not diffused
-    assert np.ptp(spread) > 0.5
+    assert np.ptp(spread) > 0.8  # drawn across the walking range, not diffused
     # the same generator state gives the same draws
     tr2 = LegTracker(preset("default", n_particles=200, hidden_search_share=0.25), KINECT, rng=np.random.default_rng(0))
     _run(tr2, seq.frames[:2])
