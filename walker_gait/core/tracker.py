@@ -1044,10 +1044,11 @@ class LegTracker:
         return w @ states
 
     def _diffuse(self, x: FloatArray, dims: np.ndarray, gain: float | FloatArray,
-                 comp: FloatArray | None = None) -> tuple[FloatArray, Kinematics, FloatArray | None]:
-        """Particles moved by the transition noise of ``dims``; with ``comp`` (:meth:`_root_compensation`) the legs'
-        angles also take the change that offsets the pelvis's move.  Returns the particles, their kinematics and that
-        angle change (``(P, 23)``, None without ``comp``)."""
+                 comp: FloatArray | None = None) -> tuple[FloatArray, Kinematics]:
+        """Particles moved by the transition noise of ``dims``, and their kinematics.  With ``comp``
+        (:meth:`_root_compensation`) the legs' angles also take the change that offsets the pelvis's move, and so do
+        the previous frame's particles (``_x_prev``, whose rows pair with ``x``'s): a change that offsets a pelvis
+        move is not motion, so the legs' constant-velocity prediction stays."""
         sigma = np.where(dims, self._noise, 0.0)
         noise = self.rng.standard_normal(x.shape) * sigma
         if np.ndim(gain) == 1:
@@ -1063,8 +1064,10 @@ class LegTracker:
                 i = np.arange(x.shape[0])
                 delta[np.floor((i + 1) * share) == np.floor(i * share)] = 0.0
             noise += delta
+            if self._x_prev is not None:
+                self._x_prev = self._x_prev + delta
         new, kin, _ = lm.enforce_constraints(x + noise, fallback=x)
-        return new, kin, delta
+        return new, kin
 
     def _root_compensation(self, x: FloatArray) -> FloatArray:
         """``(12, 3)`` leg-angle change per unit move of the root dims ``_COMPENSATED_ROOT`` that keeps, in the least
@@ -1147,10 +1150,7 @@ class LegTracker:
             b = betas[-n_layers:]
             for layer in range(n_layers):
                 layer_gain = gain * cfg.layer_noise_decay**layer
-                x_new, kin, delta = self._diffuse(x, dims, layer_gain, comp)
-                if delta is not None and self._x_prev is not None:
-                    # the legs' angles changed to offset the pelvis's move, not by moving: their velocity stays
-                    self._x_prev = self._x_prev + delta
+                x_new, kin = self._diffuse(x, dims, layer_gain, comp)
                 # coarse layers may skip the 2D cue of the combined likelihood (`fine_2d_only`)
                 use_2d = not (cfg.fine_2d_only and layer < n_layers - 1)
                 ll = self._evaluate(frame, x_new, legs=legs, ref=ref, kin=kin, use_2d=use_2d)
@@ -1190,9 +1190,7 @@ class LegTracker:
             x = self._run_stages(frame, x_pred, gain=gain, layers=cfg.n_layers, betas=cfg.anneal_betas, final=True)
         else:
             comp = self._root_compensation(x_pred) if cfg.root_compensation > 0 else None
-            x, _, delta = self._diffuse(x_pred, np.ones(lm.STATE_DIM, dtype=bool), gain, comp)
-            if delta is not None and self._x_prev is not None:
-                self._x_prev = self._x_prev + delta
+            x, _ = self._diffuse(x_pred, np.ones(lm.STATE_DIM, dtype=bool), gain, comp)
         self._x = x
         self._hidden.boost = np.maximum(self._hidden.boost - 1, 0)
 
