@@ -323,7 +323,9 @@ def test_two_passes_merge_the_forward_pass_with_a_backward_one(short_session: Pa
 
     from walker_gait.core.smoothing import wait_for_both_feet
 
-    one = process_recording(short_session, tmp_path / "one", options=_options(0, passes="forward"), progress=False)
+    # the one-pass run reports the tracker's poses as tracked (no pelvis placed), to compare with the kept passes
+    one = process_recording(short_session, tmp_path / "one", options=_options(0, passes="forward",
+                                                                             report_pelvis_window_s=0.0), progress=False)
     two = process_recording(short_session, tmp_path / "two", options=_options(0, passes="both"), progress=False)
     assert len(two.poses) == len(one.poses) == 75
     assert [p.stamp for p in two.poses] == [p.stamp for p in one.poses]
@@ -351,7 +353,8 @@ def test_two_passes_merge_the_forward_pass_with_a_backward_one(short_session: Pa
 
     merged = merge_passes(list(fin.passes)).poses
     shown = reported_poses(merged, hide_below=proc.options.tracker.hide_below, max_gap_s=proc.options.bridge_hidden_s,
-                           lowpass_hz=proc.options.report_lowpass_hz, floors=[r.floor for r in fin.results])
+                           lowpass_hz=proc.options.report_lowpass_hz, floors=[r.floor for r in fin.results],
+                           pelvis_window_s=proc.options.report_pelvis_window_s, mounting=proc.options.mounting)
     assert proc.options.report_lowpass_hz > 0 and not np.allclose([p.points for p in shown], [p.points for p in merged],
                                                                    equal_nan=True)
     np.testing.assert_array_equal([r.pose.points for r in fin.results], [p.points for p in shown])
@@ -393,7 +396,42 @@ def test_two_passes_merge_the_forward_pass_with_a_backward_one(short_session: Pa
     assert meta_one["steps_unconfirmed"] is None
     assert (meta_two["bridge_hidden_s"], meta_two["report_lowpass_hz"]) == (1.0, 6.0)
     assert meta_one["bridge_hidden_s"] is None and meta_one["report_lowpass_hz"] is None
+    assert (meta_two["report_pelvis_window_s"], meta_one["report_pelvis_window_s"]) == (1.0, 0.0)
     assert two.summary["mean_confidence"] == pytest.approx(np.mean([s.confidence for s in two.steps]))
+
+
+def test_one_pass_reports_the_pelvis_placed_frame_by_frame_as_the_live_node(short_session: Path) -> None:
+    """``passes="forward"``: the reported poses are the tracker's with the out-of-view pelvis placed over the feet
+    frame by frame (``core.pelvis.LivePelvis``, as the live leg_tracker node); the feet, the events and the steps are
+    the same as without it."""
+    from types import SimpleNamespace
+
+    from walker_gait.core.pelvis import LivePelvis
+    from walker_gait.io.bags import open_recording
+    from walker_gait.pipeline import FrameProcessor
+
+    off = FrameProcessor(_options(0, passes="forward", report_pelvis_window_s=0.0))
+    on = FrameProcessor(_options(0, passes="forward"))
+    got_off, got_on = [], []
+    for fr in open_recording(short_session).iter_frames():
+        info = SimpleNamespace(**{k: getattr(fr.camera_info, k) for k in
+                                  ("width", "height", "k", "d", "p", "distortion_model")})
+        kw = dict(stamp=fr.stamp, data=fr.data, encoding=fr.encoding, width=fr.width, height=fr.height, step=fr.step,
+                  is_bigendian=fr.is_bigendian)
+        for proc, got in ((off, got_off), (on, got_on)):
+            proc.set_camera_info(info)
+            got.append(proc.process(**kw))
+    assert len(got_on) == 75
+    live = LivePelvis(mounting="facing_user", window_s=on.options.report_pelvis_window_s)
+    placed = 0
+    for a, b in zip(got_off, got_on):
+        np.testing.assert_array_equal(a.pose.points[:, 2:], b.pose.points[:, 2:])  # ankles, heels, toes
+        np.testing.assert_array_equal(live.place(a.pose, a.floor).points, b.pose.points)
+        placed += not np.array_equal(a.pose.points, b.pose.points, equal_nan=True)
+        assert [s.stamp for s in a.steps] == [s.stamp for s in b.steps]
+        assert [(e.stamp, e.kind) for e in a.events] == [(e.stamp, e.kind) for e in b.events]
+        assert "pelvis" in b.timings_ms and "pelvis" not in a.timings_ms
+    assert placed > 40  # every tracked frame's hips moved
 
 
 def test_the_backward_pass_tells_its_tracker_that_time_runs_backwards(monkeypatch: pytest.MonkeyPatch) -> None:
@@ -427,7 +465,7 @@ def test_passes_must_be_known() -> None:
 
     with pytest.raises(ParameterError, match="passes"):
         PipelineOptions(passes="backward")
-    for name in ("bridge_hidden_s", "report_lowpass_hz"):
+    for name in ("bridge_hidden_s", "report_lowpass_hz", "report_pelvis_window_s"):
         for bad in (-0.5, float("nan"), float("inf"), "6"):
             with pytest.raises(ParameterError, match=name):
                 PipelineOptions(**{name: bad})

@@ -210,7 +210,7 @@ def _pipeline_params(args: argparse.Namespace) -> Any:
 
 def _report_options(args: argparse.Namespace) -> dict[str, float]:
     """The reported poses' ``PipelineOptions`` given on the command line (the others keep the options' defaults)."""
-    return {name: value for name in ("bridge_hidden_s", "report_lowpass_hz")
+    return {name: value for name in ("bridge_hidden_s", "report_lowpass_hz", "report_pelvis_window_s")
             if (value := getattr(args, name, None)) is not None}
 
 
@@ -324,6 +324,12 @@ def build_parser() -> argparse.ArgumentParser:
                        help="with --passes both: low-pass the reported leg points and joint angles at HZ (zero-phase "
                        "Butterworth, as gait labs filter marker trajectories; default 6; 0 = off; the gait analysis "
                        "reads the tracked poses either way)")
+        p.add_argument("--report-pelvis-window-s", type=float, default=None, metavar="S",
+                       help="report the hips and knees, which the camera does not see, with the pelvis over the "
+                       "centre of the feet averaged over S seconds and the legs' joint angles solved again so that "
+                       "the tracked knees, ankles, heels and toes stay (with --passes both a window centred "
+                       "on the frame, with forward the last S seconds, as the live graph; default 1.0; 0 = the "
+                       "hips and knees as tracked; the feet, steps and events are the same either way)")
         p.add_argument("--quiet", action="store_true", help="no progress bar")
 
     p = sub.add_parser("demo", help="generate a sample walking session, process it, compare with ground truth")

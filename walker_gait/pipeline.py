@@ -65,6 +65,9 @@ class PipelineOptions:
     bridge_hidden_s: float = 1.0
     # "both": the reported points and angles low-passed at this cut-off (smoothing.lowpass_poses; 0 = off)
     report_lowpass_hz: float = 6.0
+    # the reported out-of-view pelvis placed over the centre of the feet averaged over this long (core.pelvis; "both":
+    # a centred window, "forward": the last window_s, as the live graph; 0 = the hips and knees as tracked)
+    report_pelvis_window_s: float = 1.0
 
     def __post_init__(self) -> None:
         from walker_gait.core.gait import GaitConfig
@@ -74,7 +77,7 @@ class PipelineOptions:
 
         if self.passes not in PASSES:
             raise ParameterError(f"passes must be one of {', '.join(PASSES)}, got {self.passes!r}")
-        for name in ("bridge_hidden_s", "report_lowpass_hz"):
+        for name in ("bridge_hidden_s", "report_lowpass_hz", "report_pelvis_window_s"):
             value = getattr(self, name)
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0):
                 raise ParameterError(f"{name} must be a finite number >= 0 (0 = off), got {value!r}")
@@ -128,6 +131,9 @@ class PipelineOptions:
                 raise ParameterError(f"floor_segmentation.{name} must match depth_to_cloud.{name} ({value!r})")
         d2c.pop("input_reliability", None)  # live transport only
         trk.pop("input_depth", None)  # live transport only
+        pelvis = trk.pop("pelvis_window_s", None)  # the node's reported pelvis; a command line's own value wins
+        if pelvis is not None and "report_pelvis_window_s" not in kwargs:
+            kwargs["report_pelvis_window_s"] = float(pelvis)
         window = float(gait.pop("summary_window", 10.0))
         gait.pop("use_odometry", None)
         options = cls(
@@ -321,6 +327,12 @@ class FrameProcessor:
         self._scorer: Any = None
         # "both": per frame the forward pass's pose, its score, stage times, floor and foreground size
         self._fwd: list[tuple[LegPose, float, dict[str, float], FloorPlane, int]] = []
+        # "forward": the reported pelvis placed frame by frame, as the live leg_tracker node does
+        self._pelvis: Any = None
+        if not self._two_way and options.report_pelvis_window_s > 0:
+            from walker_gait.core.pelvis import LivePelvis
+
+            self._pelvis = LivePelvis(mounting=options.mounting, window_s=options.report_pelvis_window_s)
 
     def set_camera_info(self, info: Any) -> None:
         """Apply a CameraInfo (``CameraInfoData`` or any object with width/height/k/d/p/distortion_model)."""
@@ -421,6 +433,8 @@ class FrameProcessor:
             self.tracker = LegTracker(self.options.tracker, frame.intrinsics,
                                       rng=stage_rng(self.options.seed, "leg_tracker"), mounting=self.options.mounting)
             self._tracker_intrinsics = frame.intrinsics
+            if self._pelvis is not None:
+                self._pelvis.reset()
         t2 = time.perf_counter()
         pose = self.tracker.update(stamp=frame.stamp, points=frame.points, depth_fg=frame.depth_fg, floor=frame.floor,
                                    no_depth=frame.no_depth)
@@ -442,6 +456,9 @@ class FrameProcessor:
         events, steps = self.analyzer.update(pose, frame.floor)
         t4 = time.perf_counter()
         timings = dict(frame.timings_ms, tracker=(t3 - t2) * 1e3, gait=(t4 - t3) * 1e3)
+        if self._pelvis is not None:  # what is reported; the analyzer has read the pose as tracked (the same feet)
+            pose = self._pelvis.place(pose, frame.floor)
+            timings["pelvis"] = (time.perf_counter() - t4) * 1e3
         return FrameResult(pose=pose, floor=frame.floor, events=list(events), steps=list(steps),
                            n_foreground=len(frame.points), timings_ms=timings)
 
@@ -523,7 +540,8 @@ class FrameProcessor:
             floors = [f[3] for f in fwd]
             shown = reported_poses(merged.poses, hide_below=self.options.tracker.hide_below,
                                    max_gap_s=self.options.bridge_hidden_s, lowpass_hz=self.options.report_lowpass_hz,
-                                   floors=floors)
+                                   floors=floors, pelvis_window_s=self.options.report_pelvis_window_s,
+                                   mounting=self.options.mounting)
             # each pass analysed alone (the forward one as it was tracked): the merged track's steps are checked
             # against theirs (check_against_passes)
             assert self._fwd_alone is not None
@@ -988,6 +1006,7 @@ def process_recording(path: Path, out_dir: Path, *, options: PipelineOptions | N
         "steps_unconfirmed": finished.unconfirmed_steps if two_way else None,
         "bridge_hidden_s": options.bridge_hidden_s if two_way else None,
         "report_lowpass_hz": options.report_lowpass_hz if two_way else None,
+        "report_pelvis_window_s": options.report_pelvis_window_s,
         "frames_total": n_frames,
         "frames_processed": processed,
         "frames_skipped": dict(skipped),

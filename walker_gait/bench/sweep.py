@@ -202,14 +202,15 @@ def run_session(scenario: str, seed: int, *, duration: float, tracker_seeds: tup
 
 def reanalyse(runs: list[SessionRun], gait: GaitConfig | None = None, *,
               merge: dict[str, Any] | None = None, confirm: dict[str, Any] | None = None,
-              bridge_hidden_s: float | None = None, report_lowpass_hz: float | None = None) -> list[SessionRun]:
+              bridge_hidden_s: float | None = None, report_lowpass_hz: float | None = None,
+              report_pelvis_window_s: float | None = None) -> list[SessionRun]:
     """The runs with their steps found again by a fresh gait analyzer (``GaitConfig`` ``gait``, default: the
     pipeline's) on the tracked poses and floors the pipeline gave its analyzer: a two-pass run's passes merged
     (:func:`walker_gait.core.smoothing.merge_passes`; its stored poses are the ones reported, hidden feet bridged and
     low-passed), a one-pass run's own poses.  ``merge`` (keyword arguments of ``merge_passes``): the two-pass runs'
     passes merged that way, and their reported poses (joint errors) made again from that merge as the pipeline does
-    (:func:`walker_gait.core.smoothing.reported_poses`, ``bridge_hidden_s`` and ``report_lowpass_hz`` as
-    ``PipelineOptions``, default its defaults).  Two-pass runs get their steps checked against each pass's own as
+    (:func:`walker_gait.core.smoothing.reported_poses`, ``bridge_hidden_s``, ``report_lowpass_hz`` and
+    ``report_pelvis_window_s`` as ``PipelineOptions``, default its defaults).  Two-pass runs get their steps checked against each pass's own as
     the pipeline does (:func:`walker_gait.core.smoothing.check_against_passes`; ``confirm``: keyword arguments of
     its ``confirm_steps``)."""
     from walker_gait.bench.gait import match_steps, run_analyzer
@@ -219,6 +220,7 @@ def reanalyse(runs: list[SessionRun], gait: GaitConfig | None = None, *,
 
     bridge = PipelineOptions.bridge_hidden_s if bridge_hidden_s is None else bridge_hidden_s
     lowpass = PipelineOptions.report_lowpass_hz if report_lowpass_hz is None else report_lowpass_hz
+    pelvis = PipelineOptions.report_pelvis_window_s if report_pelvis_window_s is None else report_pelvis_window_s
     hide_below = preset("default").hide_below
     out = []
     for r in runs:
@@ -232,7 +234,7 @@ def reanalyse(runs: list[SessionRun], gait: GaitConfig | None = None, *,
             analysed = merge_passes(r.passes, **(merge or {})).poses
             if merge is not None:
                 shown = reported_poses(analysed, hide_below=hide_below, max_gap_s=bridge, lowpass_hz=lowpass,
-                                       floors=r.floors)
+                                       floors=r.floors, pelvis_window_s=pelvis)
                 r = replace(r, poses=shown, est=np.stack([p.points for p in shown]))
         ga = run_analyzer(analysed, r.floors, config=gait)
         det = ga.steps

@@ -45,6 +45,7 @@ from typing import Protocol
 import numpy as np
 from numpy.typing import NDArray
 
+from walker_gait.core.pelvis import moved_pose, place_poses
 from walker_gait.core.types import (
     ANKLE,
     HEEL,
@@ -534,22 +535,21 @@ def lowpass_poses(poses: Sequence[LegPose], *, cutoff_hz: float = LOWPASS_HZ,
     return out
 
 
-def _moved(pose: LegPose, rot: FloatArray, t: FloatArray) -> LegPose:
-    """``pose`` with its points and segments mapped by ``p -> rot @ p + t``."""
-    segs = None if pose.segments is None else np.asarray(pose.segments, dtype=np.float64) @ rot.T + t
-    return dataclasses.replace(pose, points=np.asarray(pose.points, dtype=np.float64) @ rot.T + t, segments=segs)
-
-
 def reported_poses(poses: Sequence[LegPose], *, hide_below: float, max_gap_s: float = BRIDGE_MAX_S,
-                   lowpass_hz: float = LOWPASS_HZ, floors: Sequence[FloorPlane] | None = None) -> list[LegPose]:
+                   lowpass_hz: float = LOWPASS_HZ, floors: Sequence[FloorPlane] | None = None,
+                   pelvis_window_s: float = 0.0, mounting: str = "facing_user") -> list[LegPose]:
     """The poses an offline run reports for its merged track ``poses``: hidden feet bridged over stretches up to
     ``max_gap_s`` long (:func:`bridge_hidden_legs`; 0: not bridged), then points and angles low-passed at
-    ``lowpass_hz`` (:func:`lowpass_poses`; 0: not filtered).  With ``floors`` (one per pose) both work in each
-    frame's walker frame (:meth:`FloorPlane.walker_transform`), which stays with the walker while its camera rocks
-    on the wheels: in the camera frame that rocking is motion of the legs a low-pass would take out; frames without
-    a valid floor are reported as tracked.  The gait analyzer reads the merged poses themselves."""
+    ``lowpass_hz`` (:func:`lowpass_poses`; 0: not filtered), then, with ``floors``, the out-of-view pelvis placed over
+    the centre of the feet averaged over ``pelvis_window_s`` and the hips, knees and joint angles re-solved with the
+    knees and feet held (:func:`walker_gait.core.pelvis.place_poses`, ``mounting`` as the tracker's; 0: as tracked).
+    With ``floors`` (one per pose) all work in each frame's walker frame (:meth:`FloorPlane.walker_transform`), which
+    stays with the walker while its camera rocks on the wheels: in the camera frame that rocking is motion of the
+    legs a low-pass would take out; frames without a valid floor are reported as tracked.  The gait analyzer reads
+    the merged poses themselves."""
     out = list(poses)
-    if max_gap_s <= 0 and lowpass_hz <= 0:
+    place = pelvis_window_s > 0 and floors is not None
+    if max_gap_s <= 0 and lowpass_hz <= 0 and not place:
         return out
     frames: list[tuple[FloatArray, FloatArray] | None] = [None] * len(out)
     if floors is not None:
@@ -558,7 +558,7 @@ def reported_poses(poses: Sequence[LegPose], *, hide_below: float, max_gap_s: fl
         for i, (pose, floor) in enumerate(zip(out, floors)):
             if floor.valid and np.all(np.isfinite(floor.normal)) and math.isfinite(floor.offset):
                 frames[i] = floor.walker_transform()
-                out[i] = _moved(pose, *frames[i])
+                out[i] = moved_pose(pose, *frames[i])
             else:  # no walker frame to work in: left out of both, reported as tracked
                 out[i] = LegPose.no_user(pose.stamp)
     before = list(out)
@@ -568,13 +568,15 @@ def reported_poses(poses: Sequence[LegPose], *, hide_below: float, max_gap_s: fl
         out = lowpass_poses(out, cutoff_hz=lowpass_hz)
     if floors is None:
         return out
+    if place:
+        out = place_poses(out, mounting=mounting, window_s=pelvis_window_s)
     shown = []
     for pose, first, done, wt in zip(poses, before, out, frames):
         if wt is None or done is first:
             shown.append(pose)  # untouched (both return an untouched pose as given): the tracker's own, bit for bit
         else:
             rot, t = wt
-            shown.append(_moved(done, rot.T, -(rot.T @ t)))
+            shown.append(moved_pose(done, rot.T, -(rot.T @ t)))
     return shown
 
 

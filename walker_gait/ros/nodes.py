@@ -15,6 +15,7 @@ Topics, types, QoS and parameters are tabulated in the README.
 
 from __future__ import annotations
 
+import math
 import time
 from collections import deque
 from typing import Any
@@ -340,6 +341,12 @@ class LegTrackerNode(WalkerNode):
         self.use_rectified = bool(self.declare_parameter("use_rectified", True).value)
         self.mounting = str(self.declare_parameter("mounting", "facing_user").value)
         self.seed = int(self.declare_parameter("seed", 0).value)
+        window = float(self.declare_parameter("pelvis_window_s", 1.0).value)
+        if not (math.isfinite(window) and window >= 0):
+            raise ParameterError(f"leg_tracker.pelvis_window_s must be a finite number >= 0 (0 = off), got {window}")
+        from walker_gait.core.pelvis import LivePelvis
+
+        self.pelvis = LivePelvis(mounting=self.mounting, window_s=window) if window > 0 else None
         self.tracker: Any = None
         self.intrinsics: Any = None
         self.sync = StampSync(("points", "mask", "floor"), stand_in=("floor",))
@@ -365,6 +372,8 @@ class LegTrackerNode(WalkerNode):
             return
         self.intrinsics = intr
         self.tracker = LegTracker(self.config, intr, rng=stage_rng(self.seed, "leg_tracker"), mounting=self.mounting)
+        if self.pelvis is not None:
+            self.pelvis.reset()
         while self._waiting:  # frames that were complete before the first CameraInfo
             with self.guard("leg_tracker"):
                 self.track(self._waiting.popleft())
@@ -399,6 +408,8 @@ class LegTrackerNode(WalkerNode):
         floor = M.floor_from_msg(parts["floor"])
         pose = self.tracker.update(stamp=M.stamp_to_s(header.stamp), points=points, depth_fg=depth_fg, floor=floor,
                                    no_depth=no_depth)
+        if self.pelvis is not None:  # the hips and knees the camera does not see, over the feet (same feet)
+            pose = self.pelvis.place(pose, floor)
         self.pub_joints(M.make_joint_state(pose, header))
         self.pub_track(M.make_leg_track(pose, header, particle_count=int(getattr(self.config, "n_particles", 0))))
         self.pub_markers(M.make_markers(pose, header))

@@ -1,0 +1,198 @@
+"""The reported pelvis placed over the feet (walker_gait.core.pelvis): the feet held, the hips moved."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from walker_gait.core import leg_model as lm
+from walker_gait.core import pelvis as pv
+from walker_gait.core.leg_model import StateLayout as L
+from walker_gait.core.types import ANKLE, HEEL, HIP, KNEE, TOE, FloorPlane, LegPose, TrackStatus
+
+FLIP = np.diag([-1.0, -1.0, 1.0])  # body frame -> walker frame for a camera facing the user
+
+
+def _state(angles_deg: list[float], *, root_xy: tuple[float, float] = (0.0, -0.09)) -> np.ndarray:
+    x = lm.neutral_state(right_hip_xy=root_xy)
+    x[L.ANGLES] = np.radians(angles_deg)
+    return lm.enforce_constraints(x[None])[0][0]
+
+
+def _walk(n: int = 90, fps: float = 30.0, *, lean_deg: float = 0.0) -> tuple[list[LegPose], np.ndarray]:
+    """A walking-like sequence in the walker frame: the legs swing in antiphase at 1 Hz under a still pelvis, the
+    thighs leaning ``lean_deg`` back from where they would bring the pelvis over the feet (the tracked pelvis's
+    error: a pelvis ahead of the feet); returns the poses and each frame's state."""
+    poses, states = [], []
+    for i in range(n):
+        s = np.sin(2 * np.pi * i / fps)
+        ang = [20 * s - lean_deg, 2, 0, 30 + 15 * s, 5 * s, 0, -20 * s - lean_deg, 2, 0, 30 - 15 * s, -5 * s, 0]
+        x = _state(ang)
+        pts = lm.forward_kinematics(x).points[0]
+        states.append(x)
+        segs = np.zeros((2, 3, 2, 3))
+        poses.append(LegPose(stamp=i / fps, points=pts @ FLIP, angles=lm.joint_angles(x), segments=segs))
+    return poses, np.stack(states)
+
+
+def test_pose_state_rebuilds_the_state_of_a_model_pose() -> None:
+    x = _state([20, 3, 2, 35, 5, 1, -10, 2, -3, 15, -5, 0])
+    pts = lm.forward_kinematics(x).points[0]
+    rebuilt = pv.pose_state(pts, lm.joint_angles(x))
+    np.testing.assert_allclose(lm.forward_kinematics(rebuilt).points[0], pts, atol=1e-9)
+    np.testing.assert_allclose(rebuilt[L.ANGLES], x[L.ANGLES])
+
+
+def test_place_pelvis_moves_the_pelvis_and_holds_the_knees_and_feet() -> None:
+    x = _state([20, 3, 2, 35, 5, 1, -10, 2, -3, 15, -5, 0])
+    pts = lm.forward_kinematics(x).points[0]
+    mid = lm.hip_positions(x)[0].mean(axis=0)
+    new = pv.place_pelvis(x, pv.held_points(pts), mid[:2] + np.array([-0.05, 0.01]))
+    moved = lm.hip_positions(new)[0].mean(axis=0)
+    np.testing.assert_allclose(moved[:2], mid[:2] + np.array([-0.05, 0.01]), atol=1e-9)
+    after = lm.forward_kinematics(new).points[0]
+    off = np.linalg.norm(after - pts, axis=-1)  # (2 legs, 5 points)
+    # the feet stay within a centimetre and the knees within two, as near as the model's fixed lengths allow ...
+    assert off[:, ANKLE:].max() < 0.01 and off[:, KNEE].max() < 0.02
+    # ... where the same pelvis move without the re-solve carries every point of the legs 5 cm along
+    naive = x.copy()
+    naive[[L.ROOT_X, L.ROOT_Y]] += np.array([-0.05, 0.01])
+    assert np.linalg.norm(lm.forward_kinematics(naive).points[0] - pts, axis=-1)[:, KNEE:].min() > 0.05
+    # the legs' angles changed, within the model's limits
+    assert np.abs(new[L.ANGLES] - x[L.ANGLES]).max() > np.radians(2)
+    assert np.all(new >= lm.STATE_LOWER - 1e-12) and np.all(new <= lm.STATE_UPPER + 1e-12)
+
+
+def test_place_poses_puts_the_pelvis_over_the_feet_and_leaves_the_feet_alone() -> None:
+    poses, states = _walk(lean_deg=-8.0)
+    placed = pv.place_poses(poses)
+    before = np.stack([p.points for p in poses]) @ FLIP
+    after = np.stack([p.points for p in placed]) @ FLIP
+    # the feet are the tracked ones, bit for bit
+    np.testing.assert_array_equal(after[:, :, ANKLE : TOE + 1], before[:, :, ANKLE : TOE + 1])
+    # the pelvis stood 7 cm ahead of the feet; placed, it stands over their centre averaged over a stride
+    ahead_before = before[:, :, HIP, 0].mean(axis=1) - np.stack([pv.feet_centre(p)[0] for p in before])
+    ahead_after = after[:, :, HIP, 0].mean(axis=1) - np.stack([pv.feet_centre(p)[0] for p in before])
+    assert ahead_before.mean() > 0.05
+    inner = slice(15, -15)  # frames with a full window either side
+    assert abs(ahead_after[inner].mean()) < 0.01
+    # the pelvis went back over the feet: the thighs reach forward to the knees, hip flexion rises on both legs
+    a_before = np.stack([p.angles for p in poses])
+    a_after = np.stack([p.angles for p in placed])
+    assert np.all(a_after[inner, [0, 6]] != a_before[inner, [0, 6]])
+    assert (a_after[inner][:, [0, 6]] - a_before[inner][:, [0, 6]]).mean() > np.radians(3)
+    # the segments follow the moved hips and knees
+    segs = np.stack([p.segments for p in placed])
+    np.testing.assert_array_equal(segs[:, :, 0, 0], np.stack([p.points for p in placed])[:, :, HIP])
+    np.testing.assert_array_equal(segs[:, :, 1, 0], np.stack([p.points for p in placed])[:, :, KNEE])
+    np.testing.assert_array_equal(segs[:, :, 1, 1], np.stack([p.points for p in placed])[:, :, ANKLE])
+    # the lengths of the model stay (the placed hips and knees are a model pose)
+    thigh = np.linalg.norm(after[:, :, HIP] - after[:, :, KNEE], axis=-1)
+    np.testing.assert_allclose(thigh, np.linalg.norm(before[:, :, HIP] - before[:, :, KNEE], axis=-1), atol=1e-6)
+
+
+def test_place_poses_passes_frames_without_a_track_through() -> None:
+    poses, _ = _walk(n=30)
+    poses[5] = LegPose.no_user(poses[5].stamp)
+    poses[6] = dataclasses.replace(poses[6], status=TrackStatus.SEARCHING)
+    poses[7] = dataclasses.replace(poses[7], angles=np.full(12, np.nan))
+    placed = pv.place_poses(poses)
+    for k in (5, 6, 7):
+        assert placed[k] is poses[k]
+    assert not np.array_equal(placed[8].points, poses[8].points)
+
+
+def test_place_poses_mounting_and_window_are_checked() -> None:
+    poses, _ = _walk(n=5)
+    with pytest.raises(ValueError, match="mounting"):
+        pv.place_poses(poses, mounting="sideways")
+    with pytest.raises(ValueError, match="window_s"):
+        pv.place_poses(poses, window_s=0.0)
+
+
+def _floor() -> FloorPlane:
+    """A camera 0.5 m up, pitched 30 deg down (camera optical frame: y down, z forward)."""
+    pitch = np.radians(30.0)
+    up = np.array([0.0, -np.cos(pitch), np.sin(pitch)])  # the floor normal, towards the camera's side
+    return FloorPlane(normal=up, offset=0.5, rms=0.0, inlier_ratio=1.0, valid=True)
+
+
+def test_live_pelvis_follows_a_drifting_user_without_lag_and_keeps_the_feet() -> None:
+    """Frame by frame, causal: a user who drifts back from the walker at 0.2 m/s (legs still, pelvis 7 cm ahead of
+    the feet) gets the pelvis over the feet where they are now (a line through the last second's centres), not where
+    they were half a second ago (10 cm off: the mean of the last second); the feet are the tracked ones bit for bit; a frame without a user
+    starts the history afresh."""
+    floor = _floor()
+    body = lm.BodyFrame.from_floor(floor, mounting="facing_user")
+    x0 = _state([-8, 2, 0, 30, 0, 0, -8, 2, 0, 30, 0, 0])
+    live = pv.LivePelvis(window_s=1.0)
+    ahead = []
+    for i in range(60):
+        x = x0.copy()
+        x[L.ROOT_X] -= 0.2 * i / 30.0  # body frame: +x is the user's forward, towards the walker
+        pts_body = lm.forward_kinematics(x).points[0]
+        pose = LegPose(stamp=i / 30.0, points=body.to_camera(pts_body), angles=lm.joint_angles(x))
+        out = live.place(pose, floor)
+        np.testing.assert_array_equal(out.points[:, ANKLE:], pose.points[:, ANKLE:])
+        placed = body.to_body(out.points)
+        ahead.append(placed[:, HIP, 0].mean() - pv.feet_centre(placed)[0])
+    before = lm.hip_positions(x0)[0].mean(axis=0)[0] - pv.feet_centre(lm.forward_kinematics(x0).points[0])[0]
+    assert abs(before) > 0.05
+    assert np.abs(ahead[20:]).max() < 0.01
+    # no user, then the user back 0.3 m further off: placed over where the feet are now from the first frame
+    assert live.place(LegPose.no_user(2.0), floor).status == TrackStatus.NO_USER
+    x = x0.copy()
+    x[L.ROOT_X] += 0.3
+    pts_body = lm.forward_kinematics(x).points[0]
+    out = live.place(LegPose(stamp=2.1, points=body.to_camera(pts_body), angles=lm.joint_angles(x)), floor)
+    placed = body.to_body(out.points)
+    assert abs(placed[:, HIP, 0].mean() - pv.feet_centre(placed)[0]) < 0.01
+    # a floor it cannot use: the pose as given
+    bad = dataclasses.replace(floor, valid=False)
+    pose = LegPose(stamp=2.2, points=body.to_camera(pts_body), angles=lm.joint_angles(x))
+    assert live.place(pose, bad) is pose
+
+
+def test_reported_poses_place_the_pelvis_in_the_walker_frame() -> None:
+    """``smoothing.reported_poses`` places the pelvis as :func:`place_poses` does in each frame's walker frame, the
+    feet kept; without floors (no walker frame) or with a window of 0 the hips stay as tracked."""
+    from walker_gait.core.smoothing import reported_poses
+
+    floor = _floor()
+    body = lm.BodyFrame.from_floor(floor, mounting="facing_user")
+    walker_poses, _ = _walk(n=60, lean_deg=-8.0)
+    rot, t = floor.walker_transform()
+    cam = [pv.moved_pose(p, rot.T, -(rot.T @ t)) for p in walker_poses]
+    shown = reported_poses(cam, hide_below=0.25, max_gap_s=0.0, lowpass_hz=0.0, floors=[floor] * len(cam),
+                           pelvis_window_s=1.0)
+    want = pv.place_poses(walker_poses, window_s=1.0)
+    np.testing.assert_allclose([floor.to_walker(p.points) for p in shown], [p.points for p in want], atol=1e-9)
+    np.testing.assert_allclose([p.points[:, ANKLE:] for p in shown], [p.points[:, ANKLE:] for p in cam], atol=1e-12)
+    assert np.abs(np.stack([body.to_body(p.points)[:, HIP] for p in shown])
+                  - np.stack([body.to_body(p.points)[:, HIP] for p in cam])).max() > 0.03
+    for kwargs in ({"floors": None, "pelvis_window_s": 1.0}, {"floors": [floor] * len(cam), "pelvis_window_s": 0.0}):
+        same = reported_poses(cam, hide_below=0.25, max_gap_s=0.0, lowpass_hz=0.0, **kwargs)
+        assert all(a is b for a, b in zip(same, cam))
+
+
+def test_a_held_pose_is_held_as_placed() -> None:
+    """A pose the tracker held (a blanked view: the same points and angles again) is reported as the pose before it
+    was placed, live and offline, though the feet's window moves on."""
+    floor = _floor()
+    poses, _ = _walk(n=40, lean_deg=-8.0)
+    held = [*poses[:20], *[dataclasses.replace(poses[19], stamp=poses[k].stamp, status=TrackStatus.DEGRADED,
+                                               confidence=0.0) for k in range(20, 24)], *poses[24:]]
+    offline = pv.place_poses(held)
+    for k in range(20, 24):
+        np.testing.assert_array_equal(offline[k].points, offline[19].points)
+        np.testing.assert_array_equal(offline[k].angles, offline[19].angles)
+        assert offline[k].status == TrackStatus.DEGRADED
+    rot, t = floor.walker_transform()
+    live = pv.LivePelvis()
+    out = [live.place(pv.moved_pose(p, rot.T, -(rot.T @ t)), floor) for p in held]
+    for k in range(20, 24):
+        np.testing.assert_array_equal(out[k].points, out[19].points)
+        np.testing.assert_array_equal(out[k].angles, out[19].angles)
+    assert not np.array_equal(out[24].points, out[19].points)

@@ -1,0 +1,287 @@
+"""Out-of-view hips placed over the feet: the reported pelvis where the seen legs and the base of support put it.
+
+The camera at the walker sees the user's feet and lower calves; the hips and knees are above the image in almost
+every frame (``BENCHMARKS.md``: hip 0 %, knee 0 % of the frames in view).  The particle filter weighs a pose by what
+the camera sees, so every pose whose lower legs match the data scores alike wherever its pelvis stands, and the
+tracked pelvis stays where the first frames put it: on the synthetic sessions 5-7 cm nearer the camera than the
+centre of the feet (the true one stands over it on average), with the knees 4-11 deg straighter and the thighs 5-8
+deg more upright than the real ones (fifty-fifth session).  Moving the tracker's own pelvis that way
+(``TrackerConfig.root_compensation``) fixed the hips but cost the seen feet a little.
+
+This module leaves the tracking alone and corrects only what is reported: the pelvis is moved over the floor to the
+centre of the feet (heels and toes) averaged over about one stride (``window_s``; a walking pelvis stands over its
+base of support on average, while the feet swing back and forth under it), the root height and the legs' joint
+angles are solved again (damped Gauss-Newton) so that each leg's knee, ankle, heel and toe stay where they were
+tracked, and the hips and the knees are reported from that solution, the ankles, heels and toes as tracked.  The
+thighs follow the pelvis; the feet, the steps and the events are unchanged.  The angles are solved for the reported
+points themselves (which the tracker reports as a weighted mean over its particles, with the toe measured from the
+data and flat feet levelled), so they describe the pose the points show.
+
+Frames: the poses are given in a floor-aligned frame (the walker frame of
+:meth:`~walker_gait.core.types.FloorPlane.walker_transform`, z up) and ``mounting`` says how the body frame of
+:mod:`~walker_gait.core.leg_model` (anatomical forward / left / up) lies in it.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections import deque
+from collections.abc import Sequence
+
+import numpy as np
+from numpy.typing import NDArray
+
+from walker_gait.core import leg_model as lm
+from walker_gait.core.leg_model import StateLayout as L
+from walker_gait.core.types import ANKLE, HEEL, HIP, KNEE, TOE, FloorPlane, LegPose, TrackStatus
+
+FloatArray = NDArray[np.float64]
+
+__all__ = [
+    "LivePelvis",
+    "PLACE_WINDOW_S",
+    "feet_centre",
+    "held_points",
+    "moved_pose",
+    "place_pelvis",
+    "place_poses",
+    "pose_state",
+]
+
+PLACE_WINDOW_S = 1.0
+"""Width (s) of the centred window over which the centre of the feet is averaged: about one stride (two steps at
+100-120 steps/min), so the swinging feet average out, and short enough to follow a user who drifts nearer the walker
+or further from it (the walker lags its user when the walking starts and stops)."""
+
+_GN_ITERATIONS = 8
+_GN_DAMPING = 1e-4  # m^2 per unit^2 of the unknowns (rad, m): a small pull towards the pose as tracked
+_GN_EPS = 1e-5
+_GN_TOL = 1e-4  # rad / m: the largest change of an unknown in an iteration that ends the solve
+
+_FLIP = {"facing_user": np.diag([-1.0, -1.0, 1.0]), "facing_forward": np.eye(3)}
+
+
+def _flip(mounting: str) -> FloatArray:
+    try:
+        return _FLIP[mounting]
+    except KeyError:
+        msg = f"mounting must be 'facing_user' or 'facing_forward', got {mounting!r}"
+        raise ValueError(msg) from None
+
+
+def pose_state(points: FloatArray, angles: FloatArray) -> FloatArray:
+    """A 23-D state for a reported pose: ``points`` ``(2, 5, 3)`` in the body frame, ``angles`` its 12 joint angles.
+
+    The hips give the root and the pelvis's spherical offset, the points' distances the segment lengths (both legs
+    averaged, as the state shares them), the radii are the model's mean; clipped to the model's limits."""
+    p = np.asarray(points, dtype=np.float64)
+    x = np.zeros(lm.STATE_DIM)
+    x[L.SHAPE] = lm.MEAN_SHAPE
+    right, left = p[1, HIP], p[0, HIP]
+    d = left - right
+    r = float(np.linalg.norm(d))
+    x[L.HIP_DIST] = r
+    x[L.HIP_AZ] = math.atan2(-d[0], d[1])
+    x[L.HIP_EL] = math.asin(float(np.clip(d[2] / r, -1.0, 1.0))) if r > 0 else 0.0
+    x[L.ROOT] = right
+    x[L.LEN_THIGH] = float(np.mean(np.linalg.norm(p[:, HIP] - p[:, KNEE], axis=-1)))
+    x[L.LEN_CALF] = float(np.mean(np.linalg.norm(p[:, KNEE] - p[:, ANKLE], axis=-1)))
+    x[L.LEN_FOOT] = float(np.mean(np.linalg.norm(p[:, TOE] - p[:, HEEL], axis=-1)))
+    x[L.ANGLES] = np.asarray(angles, dtype=np.float64)
+    return lm.clip_to_limits(x[None])[0]
+
+
+def held_points(points: FloatArray) -> FloatArray:
+    """``(2, 4, 3)``: each leg's knee, ankle, heel and toe (the points a placed pelvis leaves where they were)."""
+    return np.array(np.asarray(points, dtype=np.float64)[:, KNEE : TOE + 1])
+
+
+def _held_of(states: FloatArray) -> FloatArray:
+    """``(P, 24)`` held points of the states' forward kinematics."""
+    return lm.forward_kinematics(states).points[:, :, KNEE : TOE + 1].reshape(len(states), -1)
+
+
+def place_pelvis(state: FloatArray, held: FloatArray, pelvis_xy: FloatArray) -> FloatArray:
+    """``state`` with its pelvis centre (mid-hip) moved over the floor to ``pelvis_xy`` (body frame) and its root
+    height and twelve joint angles solved (damped Gauss-Newton on finite differences) so that the held points of
+    its legs (:func:`held_points`) come as near ``held`` ``(2, 4, 3)`` as the model's lengths allow.  Vectorised:
+    ``(F, 23)`` states with ``(F, 2, 4, 3)`` held points and ``(F, 2)`` places are solved together, each row until
+    its own steps are below the tolerance."""
+    single = np.ndim(state) == 1
+    x = np.array(np.atleast_2d(state), dtype=np.float64)
+    f = len(x)
+    target = np.asarray(held, dtype=np.float64).reshape(f, -1)
+    x[:, [L.ROOT_X, L.ROOT_Y]] += np.atleast_2d(pelvis_xy) - lm.hip_positions(x).mean(axis=1)[:, :2]
+    cols = np.array([L.ROOT_Z, *range(L.ANGLES.start, L.ANGLES.stop)])
+    n = len(cols)
+    damping = _GN_DAMPING * np.eye(n)
+    active = np.arange(f)
+    for _ in range(_GN_ITERATIONS):
+        xa = x[active]
+        batch = np.repeat(xa[:, None], 1 + n, axis=1)  # (F, 1 + n, 23): the state, then one unknown nudged each
+        batch[:, np.arange(1, 1 + n), cols] += _GN_EPS
+        h = _held_of(batch.reshape(-1, lm.STATE_DIM)).reshape(len(xa), 1 + n, -1)
+        res = h[:, 0] - target[active]  # (F, 24)
+        jac_t = (h[:, 1:] - h[:, :1]) / _GN_EPS  # (F, n, 24): the Jacobian, transposed
+        step = -np.linalg.solve(jac_t @ jac_t.transpose(0, 2, 1) + damping, (jac_t @ res[..., None]))[..., 0]
+        xa[:, cols] += step
+        x[active] = lm.clip_to_limits(xa)
+        active = active[np.max(np.abs(step), axis=1) >= _GN_TOL]
+        if not len(active):
+            break
+    return x[0] if single else x
+
+
+def feet_centre(points: FloatArray) -> FloatArray:
+    """``(3,)`` mean of the heels and toes of ``points`` ``(2, 5, 3)``, NaN without them."""
+    feet = np.asarray(points, dtype=np.float64)[:, [HEEL, TOE]].reshape(-1, 3)
+    ok = np.all(np.isfinite(feet), axis=1)
+    return feet[ok].mean(axis=0) if ok.any() else np.full(3, np.nan)
+
+
+def _placeable(pose: LegPose) -> bool:
+    return (pose.status in (TrackStatus.TRACKING, TrackStatus.DEGRADED) and np.all(np.isfinite(pose.points))
+            and np.all(np.isfinite(pose.angles)))
+
+
+def place_poses(poses: Sequence[LegPose], *, mounting: str = "facing_user", window_s: float = PLACE_WINDOW_S,
+                forward_offset: float = 0.0, lateral: bool = True) -> list[LegPose]:
+    """The poses (floor-aligned frame, see the module docstring) with each tracked frame's pelvis placed over the
+    centre of the feet averaged over a centred window of ``window_s`` (plus ``forward_offset`` m along the user's
+    forward; across it too with ``lateral``, else the pelvis keeps its tracked place across) and its hips, knees and
+    joint angles re-solved with the knees, ankles, heels and toes held (:func:`place_pelvis`).  Frames that
+    are neither ``TRACKING`` nor ``DEGRADED`` or lack points or angles are returned as given; a pose the tracker held
+    (the same points and angles as the frame before) is held as placed."""
+    if not window_s > 0:
+        raise ValueError(f"window_s must be > 0, got {window_s}")
+    flip = _flip(mounting)
+    out = list(poses)
+    idx = [i for i, p in enumerate(out) if _placeable(p)]
+    if not idx:
+        return out
+    stamps = np.array([out[i].stamp for i in idx], dtype=np.float64)
+    body = np.stack([np.asarray(out[i].points, dtype=np.float64) @ flip.T for i in idx])
+    centres = np.stack([feet_centre(p) for p in body])
+    ok = np.all(np.isfinite(centres), axis=1)
+    half = 0.5 * window_s
+    rows, targets = [], []
+    for k in range(len(idx)):
+        near = ok & (np.abs(stamps - stamps[k]) <= half + 1e-9)
+        if near.any():
+            rows.append(k)
+            targets.append(centres[near, :2].mean(axis=0) + np.array([forward_offset, 0.0]))
+    if not rows:
+        return out
+    pts = body[rows]
+    target = np.stack(targets)
+    if not lateral:
+        target[:, 1] = pts[:, :, HIP, 1].mean(axis=1)
+    states = np.stack([pose_state(p, out[idx[k]].angles) for p, k in zip(pts, rows)])
+    new = place_pelvis(states, pts[:, :, KNEE : TOE + 1], target)
+    kin = lm.forward_kinematics(new).points
+    for j, k in enumerate(rows):
+        i = idx[k]
+        before = poses[i - 1] if i > 0 else None
+        if before is not None and out[i - 1] is not before and np.array_equal(before.points, poses[i].points) \
+                and np.array_equal(before.angles, poses[i].angles):
+            # the tracker held its last pose (a blanked view): so is the placed one
+            out[i] = _with_upper(poses[i], np.array(out[i - 1].points, dtype=np.float64), out[i - 1].angles)
+            continue
+        placed = pts[j].copy()
+        placed[:, [HIP, KNEE]] = kin[j][:, [HIP, KNEE]]
+        out[i] = _with_upper(out[i], placed @ flip, lm.joint_angles(new[j]))
+    return out
+
+
+class LivePelvis:
+    """:func:`place_poses` frame by frame, for the live graph: the centre of the feet over the last ``window_s``
+    (a straight line fitted to it against time, read at the newest frame, so a user who walks in or drifts towards
+    the walker is not left behind by half a window), the same re-solve.  A frame without a track, a floor or time
+    that runs backwards starts the history afresh; a pose the tracker held (the same points and angles as the last
+    one placed: a blanked view) is held as placed."""
+
+    def __init__(self, *, mounting: str = "facing_user", window_s: float = PLACE_WINDOW_S,
+                 forward_offset: float = 0.0, lateral: bool = True) -> None:
+        if not window_s > 0:
+            raise ValueError(f"window_s must be > 0, got {window_s}")
+        self._flip = _flip(mounting)
+        self.window_s = float(window_s)
+        self.forward_offset = float(forward_offset)
+        self.lateral = bool(lateral)
+        self._history: deque[tuple[float, FloatArray]] = deque()
+        self._last: tuple[LegPose, LegPose] | None = None  # the last pose placed, as given and as placed
+
+    def reset(self) -> None:
+        self._history.clear()
+        self._last = None
+
+    def place(self, pose: LegPose, floor: FloorPlane) -> LegPose:
+        """``pose`` (camera frame) with its pelvis placed (the walker frame of ``floor``); as given where it cannot
+        be (no track, no valid floor)."""
+        if not _placeable(pose) or not (floor.valid and np.all(np.isfinite(floor.normal))
+                                        and math.isfinite(floor.offset)):
+            if pose.status in (TrackStatus.NO_USER, TrackStatus.SEARCHING):
+                self.reset()
+            return pose
+        if self._history and pose.stamp <= self._history[-1][0]:
+            self._history.clear()
+            self._last = None
+        if self._last is not None and np.array_equal(self._last[0].points, pose.points) \
+                and np.array_equal(self._last[0].angles, pose.angles):
+            # the tracker held its last pose (a blanked view): so is the placed one
+            held = self._last[1]
+            return _with_upper(pose, np.array(held.points, dtype=np.float64), held.angles)
+        rot, t = floor.walker_transform()
+        walker = moved_pose(pose, rot, t)
+        centre = feet_centre(np.asarray(walker.points, dtype=np.float64) @ self._flip.T)
+        if not np.all(np.isfinite(centre)):
+            return pose
+        self._history.append((pose.stamp, centre[:2]))
+        while self._history[0][0] < pose.stamp - self.window_s:
+            self._history.popleft()
+        stamps = np.array([h[0] for h in self._history]) - pose.stamp
+        xy = np.stack([h[1] for h in self._history])
+        if stamps[0] < -0.5 * self.window_s:  # enough of a window for a slope
+            coef = np.polyfit(stamps, xy, 1)  # (2, 2): slope, value at the newest frame
+            target = coef[1]
+        else:
+            target = xy.mean(axis=0)
+        placed = _place(walker, self._flip, target + np.array([self.forward_offset, 0.0]), lateral=self.lateral)
+        # the new hips and knees back in the camera frame; the feet stay the tracker's, bit for bit
+        pts = np.array(pose.points, dtype=np.float64, copy=True)
+        pts[:, [HIP, KNEE]] = (placed.points[:, [HIP, KNEE]] - t) @ rot
+        out = _with_upper(pose, pts, placed.angles)
+        self._last = (pose, out)
+        return out
+
+
+def moved_pose(pose: LegPose, rot: FloatArray, t: FloatArray) -> LegPose:
+    """``pose`` with its points and segments mapped by ``p -> rot @ p + t``."""
+    segs = None if pose.segments is None else np.asarray(pose.segments, dtype=np.float64) @ rot.T + t
+    return dataclasses.replace(pose, points=np.asarray(pose.points, dtype=np.float64) @ rot.T + t, segments=segs)
+
+
+def _place(pose: LegPose, flip: FloatArray, target: FloatArray, *, lateral: bool) -> LegPose:
+    """One pose (floor-aligned frame) with its pelvis at ``target`` (body frame x, y) and its legs re-solved."""
+    pts = np.asarray(pose.points, dtype=np.float64) @ flip.T
+    target = np.array(target, dtype=np.float64)
+    if not lateral:
+        target[1] = pts[:, HIP, 1].mean()
+    held = held_points(pts)
+    new = place_pelvis(pose_state(pts, pose.angles), held, target)
+    kin = lm.forward_kinematics(new).points[0]
+    placed = pts.copy()
+    placed[:, HIP], placed[:, KNEE] = kin[:, HIP], kin[:, KNEE]
+    return _with_upper(pose, placed @ flip, lm.joint_angles(new))
+
+
+def _with_upper(pose: LegPose, pts: FloatArray, angles: FloatArray) -> LegPose:
+    """``pose`` with its points ``pts`` (the hips and knees moved) and ``angles``; the thigh's and calf's segment ends
+    follow the hips, knees and ankles."""
+    segs = pose.segments
+    if segs is not None and np.shape(segs) == (2, 3, 2, 3):
+        segs = np.array(segs, dtype=np.float64, copy=True)
+        segs[:, 0, 0], segs[:, 0, 1] = pts[:, HIP], pts[:, KNEE]
+        segs[:, 1, 0], segs[:, 1, 1] = pts[:, KNEE], pts[:, ANKLE]
+    return dataclasses.replace(pose, points=pts, angles=np.asarray(angles, dtype=np.float64), segments=segs)
