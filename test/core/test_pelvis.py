@@ -122,8 +122,8 @@ def _floor() -> FloorPlane:
 def test_live_pelvis_follows_a_drifting_user_without_lag_and_keeps_the_feet() -> None:
     """Frame by frame, causal: a user who drifts back from the walker at 0.2 m/s (legs still, pelvis 7 cm ahead of
     the feet) gets the pelvis over the feet where they are now (a line through the last second's centres), not where
-    they were half a second ago (10 cm off: the mean of the last second); the feet are the tracked ones bit for bit; a frame without a user
-    starts the history afresh."""
+    they were half a second ago (10 cm off: the mean of the last second); the feet are the tracked ones bit for bit;
+    a frame without a user starts the history afresh."""
     floor = _floor()
     body = lm.BodyFrame.from_floor(floor, mounting="facing_user")
     x0 = _state([-8, 2, 0, 30, 0, 0, -8, 2, 0, 30, 0, 0])

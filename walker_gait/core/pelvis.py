@@ -11,11 +11,11 @@ deg more upright than the real ones (fifty-fifth session).  Moving the tracker's
 This module leaves the tracking alone and corrects only what is reported: the pelvis is moved over the floor to the
 centre of the feet (heels and toes) averaged over about one stride (``window_s``; a walking pelvis stands over its
 base of support on average, while the feet swing back and forth under it), the root height and the legs' joint
-angles are solved again (damped Gauss-Newton) so that each leg's knee, ankle, heel and toe stay where they were
-tracked, and the hips and the knees are reported from that solution, the ankles, heels and toes as tracked.  The
-thighs follow the pelvis; the feet, the steps and the events are unchanged.  The angles are solved for the reported
-points themselves (which the tracker reports as a weighted mean over its particles, with the toe measured from the
-data and flat feet levelled), so they describe the pose the points show.
+angles but the ankle inversions are solved again (damped Gauss-Newton) so that each leg's knee, ankle, heel and toe
+stay where they were tracked, and the hips and the knees are reported from that solution, the ankles, heels and
+toes as tracked.  The thighs follow the pelvis; the feet, the steps and the events are unchanged.  The angles are
+solved for the reported points themselves (which the tracker reports as a weighted mean over its particles, with the
+toe measured from the data and flat feet levelled), so they describe the pose the points show.
 
 Frames: the poses are given in a floor-aligned frame (the walker frame of
 :meth:`~walker_gait.core.types.FloorPlane.walker_transform`, z up) and ``mounting`` says how the body frame of
@@ -111,7 +111,8 @@ def _held_of(states: FloatArray) -> FloatArray:
 
 def place_pelvis(state: FloatArray, held: FloatArray, pelvis_xy: FloatArray) -> FloatArray:
     """``state`` with its pelvis centre (mid-hip) moved over the floor to ``pelvis_xy`` (body frame) and its root
-    height and twelve joint angles solved (damped Gauss-Newton on finite differences) so that the held points of
+    height and joint angles but the ankle inversions (``_SOLVED``) solved (damped Gauss-Newton on finite
+    differences) so that the held points of
     its legs (:func:`held_points`) come as near ``held`` ``(2, 4, 3)`` as the model's lengths allow.  Vectorised:
     ``(F, 23)`` states with ``(F, 2, 4, 3)`` held points and ``(F, 2)`` places are solved together, each row until
     its own steps are below the tolerance."""
@@ -152,12 +153,11 @@ def _placeable(pose: LegPose) -> bool:
             and np.all(np.isfinite(pose.angles)))
 
 
-def place_poses(poses: Sequence[LegPose], *, mounting: str = "facing_user", window_s: float = PLACE_WINDOW_S,
-                forward_offset: float = 0.0, lateral: bool = True) -> list[LegPose]:
+def place_poses(poses: Sequence[LegPose], *, mounting: str = "facing_user",
+                window_s: float = PLACE_WINDOW_S) -> list[LegPose]:
     """The poses (floor-aligned frame, see the module docstring) with each tracked frame's pelvis placed over the
-    centre of the feet averaged over a centred window of ``window_s`` (plus ``forward_offset`` m along the user's
-    forward; across it too with ``lateral``, else the pelvis keeps its tracked place across) and its hips, knees and
-    joint angles re-solved with the knees, ankles, heels and toes held (:func:`place_pelvis`).  Frames that
+    centre of the feet averaged over a centred window of ``window_s`` and its hips, knees and joint angles
+    re-solved with the knees, ankles, heels and toes held (:func:`place_pelvis`).  Frames that
     are neither ``TRACKING`` nor ``DEGRADED`` or lack points or angles are returned as given; a pose the tracker held
     (the same points and angles as the frame before) is held as placed."""
     if not window_s > 0:
@@ -177,13 +177,11 @@ def place_poses(poses: Sequence[LegPose], *, mounting: str = "facing_user", wind
         near = ok & (np.abs(stamps - stamps[k]) <= half + 1e-9)
         if near.any():
             rows.append(k)
-            targets.append(centres[near, :2].mean(axis=0) + np.array([forward_offset, 0.0]))
+            targets.append(centres[near, :2].mean(axis=0))
     if not rows:
         return out
     pts = body[rows]
     target = np.stack(targets)
-    if not lateral:
-        target[:, 1] = pts[:, :, HIP, 1].mean(axis=1)
     states = np.stack([pose_state(p, out[idx[k]].angles) for p, k in zip(pts, rows)])
     new = place_pelvis(states, pts[:, :, _HELD], target)
     kin = lm.forward_kinematics(new).points
@@ -208,14 +206,11 @@ class LivePelvis:
     that runs backwards starts the history afresh; a pose the tracker held (the same points and angles as the last
     one placed: a blanked view) is held as placed."""
 
-    def __init__(self, *, mounting: str = "facing_user", window_s: float = PLACE_WINDOW_S,
-                 forward_offset: float = 0.0, lateral: bool = True) -> None:
+    def __init__(self, *, mounting: str = "facing_user", window_s: float = PLACE_WINDOW_S) -> None:
         if not window_s > 0:
             raise ValueError(f"window_s must be > 0, got {window_s}")
         self._flip = _flip(mounting)
         self.window_s = float(window_s)
-        self.forward_offset = float(forward_offset)
-        self.lateral = bool(lateral)
         self._history: deque[tuple[float, FloatArray]] = deque()
         self._last: tuple[LegPose, LegPose] | None = None  # the last pose placed, as given and as placed
 
@@ -254,7 +249,7 @@ class LivePelvis:
             target = coef[1]
         else:
             target = xy.mean(axis=0)
-        placed = _place(walker, self._flip, target + np.array([self.forward_offset, 0.0]), lateral=self.lateral)
+        placed = _place(walker, self._flip, target)
         # the new hips and knees back in the camera frame; the feet stay the tracker's, bit for bit
         pts = np.array(pose.points, dtype=np.float64, copy=True)
         pts[:, [HIP, KNEE]] = (placed.points[:, [HIP, KNEE]] - t) @ rot
@@ -269,14 +264,10 @@ def moved_pose(pose: LegPose, rot: FloatArray, t: FloatArray) -> LegPose:
     return dataclasses.replace(pose, points=np.asarray(pose.points, dtype=np.float64) @ rot.T + t, segments=segs)
 
 
-def _place(pose: LegPose, flip: FloatArray, target: FloatArray, *, lateral: bool) -> LegPose:
+def _place(pose: LegPose, flip: FloatArray, target: FloatArray) -> LegPose:
     """One pose (floor-aligned frame) with its pelvis at ``target`` (body frame x, y) and its legs re-solved."""
     pts = np.asarray(pose.points, dtype=np.float64) @ flip.T
-    target = np.array(target, dtype=np.float64)
-    if not lateral:
-        target[1] = pts[:, HIP, 1].mean()
-    held = held_points(pts)
-    new = place_pelvis(pose_state(pts, pose.angles), held, target)
+    new = place_pelvis(pose_state(pts, pose.angles), held_points(pts), target)
     kin = lm.forward_kinematics(new).points[0]
     placed = pts.copy()
     placed[:, HIP], placed[:, KNEE] = kin[:, HIP], kin[:, KNEE]
