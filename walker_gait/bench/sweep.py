@@ -210,9 +210,9 @@ def reanalyse(runs: list[SessionRun], gait: GaitConfig | None = None, *,
     low-passed), a one-pass run's own poses.  ``merge`` (keyword arguments of ``merge_passes``): the two-pass runs'
     passes merged that way, and their reported poses (joint errors) made again from that merge as the pipeline does
     (:func:`walker_gait.core.smoothing.reported_poses`, ``bridge_hidden_s``, ``report_lowpass_hz`` and
-    ``report_pelvis_window_s`` as ``PipelineOptions``, default its defaults).  Two-pass runs get their steps checked against each pass's own as
-    the pipeline does (:func:`walker_gait.core.smoothing.check_against_passes`; ``confirm``: keyword arguments of
-    its ``confirm_steps``)."""
+    ``report_pelvis_window_s`` as ``PipelineOptions``, default its defaults).  Two-pass runs get their steps checked
+    against each pass's own as the pipeline does (:func:`walker_gait.core.smoothing.check_against_passes`;
+    ``confirm``: keyword arguments of its ``confirm_steps``)."""
     from walker_gait.bench.gait import match_steps, run_analyzer
     from walker_gait.core.smoothing import check_against_passes, merge_passes, reported_poses
     from walker_gait.core.tracker import preset

@@ -47,6 +47,7 @@ __all__ = [
     "place_pelvis",
     "place_poses",
     "pose_state",
+    "with_points",
 ]
 
 PLACE_WINDOW_S = 1.0
@@ -112,8 +113,8 @@ def _held_of(states: FloatArray) -> FloatArray:
 def place_pelvis(state: FloatArray, held: FloatArray, pelvis_xy: FloatArray) -> FloatArray:
     """``state`` with its pelvis centre (mid-hip) moved over the floor to ``pelvis_xy`` (body frame) and its root
     height and joint angles but the ankle inversions (``_SOLVED``) solved (damped Gauss-Newton on finite
-    differences) so that the held points of
-    its legs (:func:`held_points`) come as near ``held`` ``(2, 4, 3)`` as the model's lengths allow.  Vectorised:
+    differences) so that the held points of its legs (:func:`held_points`) come as near ``held`` ``(2, 4, 3)`` as the
+    model's lengths allow.  Vectorised:
     ``(F, 23)`` states with ``(F, 2, 4, 3)`` held points and ``(F, 2)`` places are solved together, each row until
     its own steps are below the tolerance."""
     single = np.ndim(state) == 1
@@ -191,11 +192,12 @@ def place_poses(poses: Sequence[LegPose], *, mounting: str = "facing_user",
         if before is not None and out[i - 1] is not before and np.array_equal(before.points, poses[i].points) \
                 and np.array_equal(before.angles, poses[i].angles):
             # the tracker held its last pose (a blanked view): so is the placed one
-            out[i] = _with_upper(poses[i], np.array(out[i - 1].points, dtype=np.float64), out[i - 1].angles)
+            out[i] = with_points(poses[i], np.array(out[i - 1].points, dtype=np.float64),
+                                 angles=out[i - 1].angles)
             continue
         placed = pts[j].copy()
         placed[:, [HIP, KNEE]] = kin[j][:, [HIP, KNEE]]
-        out[i] = _with_upper(out[i], placed @ flip, lm.joint_angles(new[j]))
+        out[i] = with_points(out[i], placed @ flip, angles=lm.joint_angles(new[j]))
     return out
 
 
@@ -233,7 +235,7 @@ class LivePelvis:
                 and np.array_equal(self._last[0].angles, pose.angles):
             # the tracker held its last pose (a blanked view): so is the placed one
             held = self._last[1]
-            return _with_upper(pose, np.array(held.points, dtype=np.float64), held.angles)
+            return with_points(pose, np.array(held.points, dtype=np.float64), angles=held.angles)
         rot, t = floor.walker_transform()
         walker = moved_pose(pose, rot, t)
         centre = feet_centre(np.asarray(walker.points, dtype=np.float64) @ self._flip.T)
@@ -253,7 +255,7 @@ class LivePelvis:
         # the new hips and knees back in the camera frame; the feet stay the tracker's, bit for bit
         pts = np.array(pose.points, dtype=np.float64, copy=True)
         pts[:, [HIP, KNEE]] = (placed.points[:, [HIP, KNEE]] - t) @ rot
-        out = _with_upper(pose, pts, placed.angles)
+        out = with_points(pose, pts, angles=placed.angles)
         self._last = (pose, out)
         return out
 
@@ -271,15 +273,19 @@ def _place(pose: LegPose, flip: FloatArray, target: FloatArray) -> LegPose:
     kin = lm.forward_kinematics(new).points[0]
     placed = pts.copy()
     placed[:, HIP], placed[:, KNEE] = kin[:, HIP], kin[:, KNEE]
-    return _with_upper(pose, placed @ flip, lm.joint_angles(new))
+    return with_points(pose, placed @ flip, angles=lm.joint_angles(new))
 
 
-def _with_upper(pose: LegPose, pts: FloatArray, angles: FloatArray) -> LegPose:
-    """``pose`` with its points ``pts`` (the hips and knees moved) and ``angles``; the thigh's and calf's segment ends
-    follow the hips, knees and ankles."""
+def with_points(pose: LegPose, pts: FloatArray, *, angles: FloatArray | None = None) -> LegPose:
+    """``pose`` with its points ``pts`` ``(2, 5, 3)`` (and joint ``angles``, if given), its segments moved with them:
+    the thigh's and the calf's ends to the hip, knee and ankle, the foot's ends by the heel's and the toe's
+    displacement."""
+    old = np.asarray(pose.points, dtype=np.float64)
     segs = pose.segments
     if segs is not None and np.shape(segs) == (2, 3, 2, 3):
         segs = np.array(segs, dtype=np.float64, copy=True)
-        segs[:, 0, 0], segs[:, 0, 1] = pts[:, HIP], pts[:, KNEE]
-        segs[:, 1, 0], segs[:, 1, 1] = pts[:, KNEE], pts[:, ANKLE]
-    return dataclasses.replace(pose, points=pts, angles=np.asarray(angles, dtype=np.float64), segments=segs)
+        segs[:, 0, 0], segs[:, 0, 1] = pts[:, HIP], pts[:, KNEE]  # thigh: hip -> knee
+        segs[:, 1, 0], segs[:, 1, 1] = pts[:, KNEE], pts[:, ANKLE]  # calf: knee -> ankle
+        segs[:, 2, 0] += pts[:, HEEL] - old[:, HEEL]  # foot: heel end, toe end
+        segs[:, 2, 1] += pts[:, TOE] - old[:, TOE]
+    return dataclasses.replace(pose, points=pts, segments=segs, angles=pose.angles if angles is None else angles)

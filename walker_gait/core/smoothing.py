@@ -45,7 +45,7 @@ from typing import Protocol
 import numpy as np
 from numpy.typing import NDArray
 
-from walker_gait.core.pelvis import moved_pose, place_poses
+from walker_gait.core.pelvis import moved_pose, place_poses, with_points
 from walker_gait.core.types import (
     ANKLE,
     HEEL,
@@ -361,26 +361,11 @@ def _feet_hidden(pose: LegPose, hide_below: float) -> NDArray[np.bool_]:
     return np.asarray(pose.visibility, dtype=np.float64)[:, 2] < hide_below
 
 
-def _with_points(pose: LegPose, pts: FloatArray, *, angles: FloatArray | None = None) -> LegPose:
-    """``pose`` with its points ``pts`` ``(2, 5, 3)`` (and joint ``angles``, if given), its segments moved with them:
-    the thigh's and the calf's ends to the hip, knee and ankle, the foot's ends by the heel's and the toe's
-    displacement."""
-    old = np.asarray(pose.points, dtype=np.float64)
-    segs = pose.segments
-    if segs is not None and np.shape(segs) == (2, 3, 2, 3):
-        segs = np.array(segs, dtype=np.float64, copy=True)
-        segs[:, 0, 0], segs[:, 0, 1] = pts[:, HIP], pts[:, KNEE]  # thigh: hip -> knee
-        segs[:, 1, 0], segs[:, 1, 1] = pts[:, KNEE], pts[:, ANKLE]  # calf: knee -> ankle
-        segs[:, 2, 0] += pts[:, HEEL] - old[:, HEEL]  # foot: heel end, toe end
-        segs[:, 2, 1] += pts[:, TOE] - old[:, TOE]
-    return dataclasses.replace(pose, points=pts, segments=segs, angles=pose.angles if angles is None else angles)
-
-
 def _with_leg_points(pose: LegPose, leg: int, new: FloatArray) -> LegPose:
-    """``pose`` with leg ``leg``'s ``BRIDGE_POINTS`` at ``new`` (:func:`_with_points`)."""
+    """``pose`` with leg ``leg``'s ``BRIDGE_POINTS`` at ``new`` (:func:`~walker_gait.core.pelvis.with_points`)."""
     pts = np.array(pose.points, dtype=np.float64, copy=True)
     pts[leg, np.array(BRIDGE_POINTS)] = new
-    return _with_points(pose, pts)
+    return with_points(pose, pts)
 
 
 def bridge_hidden_legs(poses: Sequence[LegPose], *, hide_below: float, max_gap_s: float = BRIDGE_MAX_S,
@@ -490,8 +475,8 @@ def lowpass_poses(poses: Sequence[LegPose], *, cutoff_hz: float = LOWPASS_HZ,
     Control of Human Movement*).  It runs over each stretch of consecutive tracked frames (finite points, status
     TRACKING or DEGRADED, no interval over twice the stretch's median) at that stretch's median frame rate; a stretch
     too short for the filter (``LOWPASS_MIN_FRAMES``) or sampled at less than 2.5 times the cut-off stays as it is.
-    Segments move with the points (:func:`_with_points`); radii, visibility, status and confidence stay.  ``poses``
-    is not modified.  Second order only (:func:`butter2`, :func:`filtfilt2`).
+    Segments move with the points (:func:`~walker_gait.core.pelvis.with_points`); radii, visibility, status and
+    confidence stay.  ``poses`` is not modified.  Second order only (:func:`butter2`, :func:`filtfilt2`).
     """
     if order != 2:
         raise ValueError(f"order must be 2 (a second-order Butterworth, run both ways), got {order}")
@@ -531,7 +516,7 @@ def lowpass_poses(poses: Sequence[LegPose], *, cutoff_hz: float = LOWPASS_HZ,
             else:
                 ang = None
             for j, i in enumerate(range(lo, hi)):
-                out[i] = _with_points(poses[i], pts[j], angles=None if ang is None else ang[j])
+                out[i] = with_points(poses[i], pts[j], angles=None if ang is None else ang[j])
     return out
 
 
