@@ -65,7 +65,7 @@ class PipelineOptions:
     bridge_hidden_s: float = 1.0
     # "both": the reported points and angles low-passed at this cut-off (smoothing.lowpass_poses; 0 = off)
     report_lowpass_hz: float = 6.0
-    # the reported out-of-view pelvis placed over the centre of the feet averaged over this long (core.pelvis; "both":
+    # the reported out-of-view pelvis placed over the ankles averaged over this long (core.pelvis; "both":
     # a centred window, "forward": the last window_s, as the live graph; 0 = the hips and knees as tracked)
     report_pelvis_window_s: float = 1.0
 

@@ -37,6 +37,29 @@ def _walk(n: int = 90, fps: float = 30.0, *, lean_deg: float = 0.0) -> tuple[lis
     return poses, np.stack(states)
 
 
+def _ahead(points: np.ndarray) -> float:
+    """How far (body frame x) the pelvis of ``points`` ``(2, 5, 3)`` stands ahead of the midpoint of its ankles."""
+    return float(points[:, HIP, 0].mean() - points[:, ANKLE, 0].mean())
+
+
+def test_the_pelvis_leads_the_ankles_more_walking_than_standing() -> None:
+    """The lean grows from a standing user's to a walking one's with the feet's fore-aft swing, and no further."""
+    still = np.full(30, 0.02) + 1e-3 * np.random.default_rng(0).standard_normal(30)
+    assert pv.lean(still) == pytest.approx(pv.STAND_LEAN_M, abs=1e-3)
+    t = np.arange(30) / 30.0
+    leans = [pv.lean(a * np.sin(2 * np.pi * t)) for a in (0.1, 0.2, 0.3, 0.5)]
+    assert pv.STAND_LEAN_M < leans[0] < leans[1] < pv.WALK_LEAN_M
+    assert leans[2] == leans[3] == pytest.approx(pv.WALK_LEAN_M)
+    # the target: the ankles' mean midpoint, that far ahead; support_sample reads the midpoint and the separation
+    pts = np.zeros((2, 5, 3))
+    pts[0, ANKLE], pts[1, ANKLE] = [0.2, 0.1, 0.09], [-0.1, -0.1, 0.09]
+    np.testing.assert_allclose(pv.support_sample(pts), [0.05, 0.0, 0.3])
+    samples = np.array([[0.0, 0.01, 0.0], [0.02, -0.01, 0.0]])
+    np.testing.assert_allclose(pv.pelvis_target(samples), [0.01 + pv.STAND_LEAN_M, 0.0])
+    pts[1, ANKLE] = np.nan
+    assert np.all(np.isnan(pv.support_sample(pts)[[0, 2]]))
+
+
 def test_pose_state_rebuilds_the_state_of_a_model_pose() -> None:
     x = _state([20, 3, 2, 35, 5, 1, -10, 2, -3, 15, -5, 0])
     pts = lm.forward_kinematics(x).points[0]
@@ -66,18 +89,19 @@ def test_place_pelvis_moves_the_pelvis_and_holds_the_knees_and_feet() -> None:
 
 
 def test_place_poses_puts_the_pelvis_over_the_feet_and_leaves_the_feet_alone() -> None:
-    poses, states = _walk(lean_deg=-8.0)
+    poses, states = _walk(lean_deg=-4.0)
     placed = pv.place_poses(poses)
     before = np.stack([p.points for p in poses]) @ FLIP
     after = np.stack([p.points for p in placed]) @ FLIP
     # the feet are the tracked ones, bit for bit
     np.testing.assert_array_equal(after[:, :, ANKLE : TOE + 1], before[:, :, ANKLE : TOE + 1])
-    # the pelvis stood 7 cm ahead of the feet; placed, it stands over their centre averaged over a stride
-    ahead_before = before[:, :, HIP, 0].mean(axis=1) - np.stack([pv.feet_centre(p)[0] for p in before])
-    ahead_after = after[:, :, HIP, 0].mean(axis=1) - np.stack([pv.feet_centre(p)[0] for p in before])
-    assert ahead_before.mean() > 0.05
+    # the pelvis stood 15 cm ahead of the ankles; placed, it leads their midpoint averaged over a stride by a walking
+    # user's lean (the feet swing: sd of their separation 0.25 m)
+    ahead_before = np.array([_ahead(p) for p in before])
+    ahead_after = np.array([_ahead(p) for p in after])
+    assert ahead_before.mean() - pv.WALK_LEAN_M > 0.05
     inner = slice(15, -15)  # frames with a full window either side
-    assert abs(ahead_after[inner].mean()) < 0.01
+    assert abs(ahead_after[inner].mean() - pv.WALK_LEAN_M) < 0.01
     # the pelvis went back over the feet: the thighs reach forward to the knees, hip flexion rises on both legs
     a_before = np.stack([p.angles for p in poses])
     a_after = np.stack([p.angles for p in placed])
@@ -120,8 +144,8 @@ def _floor() -> FloorPlane:
 
 
 def test_live_pelvis_follows_a_drifting_user_without_lag_and_keeps_the_feet() -> None:
-    """Frame by frame, causal: a user who drifts back from the walker at 0.2 m/s (legs still, pelvis 7 cm ahead of
-    the feet) gets the pelvis over the feet where they are now (a line through the last second's centres), not where
+    """Frame by frame, causal: a user who drifts back from the walker at 0.2 m/s (legs still: a standing user's lean)
+    gets the pelvis placed over the ankles where they are now (a line through the last second's midpoints), not where
     they were half a second ago (10 cm off: the mean of the last second); the feet are the tracked ones bit for bit;
     a frame without a user starts the history afresh."""
     floor = _floor()
@@ -137,9 +161,8 @@ def test_live_pelvis_follows_a_drifting_user_without_lag_and_keeps_the_feet() ->
         out = live.place(pose, floor)
         np.testing.assert_array_equal(out.points[:, ANKLE:], pose.points[:, ANKLE:])
         placed = body.to_body(out.points)
-        ahead.append(placed[:, HIP, 0].mean() - pv.feet_centre(placed)[0])
-    before = lm.hip_positions(x0)[0].mean(axis=0)[0] - pv.feet_centre(lm.forward_kinematics(x0).points[0])[0]
-    assert abs(before) > 0.05
+        ahead.append(_ahead(placed) - pv.STAND_LEAN_M)
+    assert abs(_ahead(lm.forward_kinematics(x0).points[0]) - pv.STAND_LEAN_M) > 0.05
     assert np.abs(ahead[20:]).max() < 0.01
     # no user, then the user back 0.3 m further off: placed over where the feet are now from the first frame
     assert live.place(LegPose.no_user(2.0), floor).status == TrackStatus.NO_USER
@@ -148,7 +171,7 @@ def test_live_pelvis_follows_a_drifting_user_without_lag_and_keeps_the_feet() ->
     pts_body = lm.forward_kinematics(x).points[0]
     out = live.place(LegPose(stamp=2.1, points=body.to_camera(pts_body), angles=lm.joint_angles(x)), floor)
     placed = body.to_body(out.points)
-    assert abs(placed[:, HIP, 0].mean() - pv.feet_centre(placed)[0]) < 0.01
+    assert abs(_ahead(placed) - pv.STAND_LEAN_M) < 0.01
     # a floor it cannot use: the pose as given
     bad = dataclasses.replace(floor, valid=False)
     pose = LegPose(stamp=2.2, points=body.to_camera(pts_body), angles=lm.joint_angles(x))

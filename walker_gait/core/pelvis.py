@@ -4,18 +4,19 @@ The camera at the walker sees the user's feet and lower calves; the hips and kne
 every frame (``BENCHMARKS.md``: hip 0 %, knee 0 % of the frames in view).  The particle filter weighs a pose by what
 the camera sees, so every pose whose lower legs match the data scores alike wherever its pelvis stands, and the
 tracked pelvis stays where the first frames put it: on the synthetic sessions 5-7 cm nearer the camera than the
-centre of the feet (the true one stands over it on average), with the knees 4-11 deg straighter and the thighs 5-8
+centre of the feet (the true one stands about over it on average while walking), with the knees 4-11 deg straighter and the thighs 5-8
 deg more upright than the real ones (fifty-fifth session).  Moving the tracker's own pelvis that way
 (``TrackerConfig.root_compensation``) fixed the hips but cost the seen feet a little.
 
-This module leaves the tracking alone and corrects only what is reported: the pelvis is moved over the floor to the
-centre of the feet (heels and toes) averaged over about one stride (``window_s``; a walking pelvis stands over its
-base of support on average, while the feet swing back and forth under it), the root height and the legs' joint
-angles but the ankle inversions are solved again (damped Gauss-Newton) so that each leg's knee, ankle, heel and toe
-stay where they were tracked, and the hips and the knees are reported from that solution, the ankles, heels and
-toes as tracked.  The thighs follow the pelvis; the feet, the steps and the events are unchanged.  The angles are
-solved for the reported points themselves (which the tracker reports as a weighted mean over its particles, with the
-toe measured from the data and flat feet levelled), so they describe the pose the points show.
+This module leaves the tracking alone and corrects only what is reported: the pelvis is moved over the floor to
+where the tracked ankles put it (:func:`pelvis_target`: the midpoint of the ankles averaged over about one stride,
+``window_s``, plus a forward lean that grows from a standing user's to a walking one's with how far the feet swing
+back and forth in that window), the root height and the legs' joint angles but the ankle inversions are solved again
+(damped Gauss-Newton) so that each leg's knee, ankle, heel and toe stay where they were tracked, and the hips and the
+knees are reported from that solution, the ankles, heels and toes as tracked.  The thighs follow the pelvis; the
+feet, the steps and the events are unchanged.  The angles are solved for the reported points themselves (which the
+tracker reports as a weighted mean over its particles, with the toe measured from the data and flat feet levelled),
+so they describe the pose the points show.
 
 Frames: the poses are given in a floor-aligned frame (the walker frame of
 :meth:`~walker_gait.core.types.FloorPlane.walker_transform`, z up) and ``mounting`` says how the body frame of
@@ -41,19 +42,39 @@ FloatArray = NDArray[np.float64]
 __all__ = [
     "LivePelvis",
     "PLACE_WINDOW_S",
-    "feet_centre",
+    "STAND_LEAN_M",
+    "WALK_LEAN_M",
+    "WALK_SWING_M",
     "held_points",
+    "lean",
     "moved_pose",
     "place_pelvis",
+    "pelvis_target",
     "place_poses",
     "pose_state",
+    "support_sample",
     "with_points",
 ]
 
 PLACE_WINDOW_S = 1.0
-"""Width (s) of the centred window over which the centre of the feet is averaged: about one stride (two steps at
+"""Width (s) of the centred window over which the ankles are averaged: about one stride (two steps at
 100-120 steps/min), so the swinging feet average out, and short enough to follow a user who drifts nearer the walker
 or further from it (the walker lags its user when the walking starts and stops)."""
+
+STAND_LEAN_M = 0.03
+"""How far (m) a standing user's pelvis (mid-hip) stands ahead of the midpoint of the ankles: upright, the hips stand
+over the ankles and the body's weight a little ahead of them (the line of gravity passes a few cm in front of the
+ankle joints).  Synthetic sessions, frames whose feet hardly move (``out/exp57/truth2.py``): the true pelvis stands
++2.7 cm ahead of the ankles' 1 s mean (RMS 5.1 cm with the starts and stops) and 3.9 cm *behind* the centre of the
+heels and toes, where the fifty-sixth session's placement put it."""
+WALK_LEAN_M = 0.07
+"""How far (m) a walking user's pelvis stands ahead of the midpoint of the ankles averaged over a stride: it passes
+over each stance foot and leads it at mid stance, more so for a user who leans on a walker.  Synthetic sessions,
+walking frames: +6.9 cm (RMS 7.5 before the offset, 2.7 after)."""
+WALK_SWING_M = 0.20
+"""Standard deviation (m) over the window of the ankles' fore-aft separation at and above which the user counts as
+walking (:func:`lean`): walking, the separation swings by about plus or minus a step length (sd 0.2-0.47 m in the
+synthetic sessions, median per scenario), standing it stays within noise."""
 
 _HELD = [KNEE, ANKLE, HEEL, TOE]
 """The points of each leg a placed pelvis leaves where they were tracked."""
@@ -142,11 +163,26 @@ def place_pelvis(state: FloatArray, held: FloatArray, pelvis_xy: FloatArray) -> 
     return x[0] if single else x
 
 
-def feet_centre(points: FloatArray) -> FloatArray:
-    """``(3,)`` mean of the heels and toes of ``points`` ``(2, 5, 3)``, NaN without them."""
-    feet = np.asarray(points, dtype=np.float64)[:, [HEEL, TOE]].reshape(-1, 3)
-    ok = np.all(np.isfinite(feet), axis=1)
-    return feet[ok].mean(axis=0) if ok.any() else np.full(3, np.nan)
+def support_sample(points: FloatArray) -> FloatArray:
+    """``(3,)`` of one pose's ``points`` ``(2, 5, 3)`` (body frame): the x and y of the midpoint of the two ankles and
+    their fore-aft (x) separation, left minus right; NaN without both ankles."""
+    a = np.asarray(points, dtype=np.float64)[:, ANKLE]
+    return np.array([0.5 * (a[0, 0] + a[1, 0]), 0.5 * (a[0, 1] + a[1, 1]), a[0, 0] - a[1, 0]])
+
+
+def lean(separations: FloatArray) -> float:
+    """Forward offset (m) of the pelvis over the ankles' midpoint for a window of the ankles' fore-aft
+    ``separations``: :data:`STAND_LEAN_M` for feet that stay put, :data:`WALK_LEAN_M` for feet that swing by
+    :data:`WALK_SWING_M` (standard deviation) or more, linear in between."""
+    swing = min(1.0, float(np.std(np.asarray(separations, dtype=np.float64))) / WALK_SWING_M)
+    return STAND_LEAN_M + swing * (WALK_LEAN_M - STAND_LEAN_M)
+
+
+def pelvis_target(samples: FloatArray) -> FloatArray:
+    """``(2,)``: where (body frame x, y) the pelvis is placed for a window of :func:`support_sample` rows
+    ``(K, 3)``: over the ankles' mean midpoint, :func:`lean` ahead of it."""
+    s = np.asarray(samples, dtype=np.float64)
+    return s[:, :2].mean(axis=0) + np.array([lean(s[:, 2]), 0.0])
 
 
 def _placeable(pose: LegPose) -> bool:
@@ -156,8 +192,8 @@ def _placeable(pose: LegPose) -> bool:
 
 def place_poses(poses: Sequence[LegPose], *, mounting: str = "facing_user",
                 window_s: float = PLACE_WINDOW_S) -> list[LegPose]:
-    """The poses (floor-aligned frame, see the module docstring) with each tracked frame's pelvis placed over the
-    centre of the feet averaged over a centred window of ``window_s`` and its hips, knees and joint angles
+    """The poses (floor-aligned frame, see the module docstring) with each tracked frame's pelvis placed where the
+    ankles in a centred window of ``window_s`` put it (:func:`pelvis_target`) and its hips, knees and joint angles
     re-solved with the knees, ankles, heels and toes held (:func:`place_pelvis`).  Frames that
     are neither ``TRACKING`` nor ``DEGRADED`` or lack points or angles are returned as given; a pose the tracker held
     (the same points and angles as the frame before) is held as placed."""
@@ -170,15 +206,15 @@ def place_poses(poses: Sequence[LegPose], *, mounting: str = "facing_user",
         return out
     stamps = np.array([out[i].stamp for i in idx], dtype=np.float64)
     body = np.stack([np.asarray(out[i].points, dtype=np.float64) @ flip.T for i in idx])
-    centres = np.stack([feet_centre(p) for p in body])
-    ok = np.all(np.isfinite(centres), axis=1)
+    samples = np.stack([support_sample(p) for p in body])
+    ok = np.all(np.isfinite(samples), axis=1)
     half = 0.5 * window_s
     rows, targets = [], []
     for k in range(len(idx)):
         near = ok & (np.abs(stamps - stamps[k]) <= half + 1e-9)
         if near.any():
             rows.append(k)
-            targets.append(centres[near, :2].mean(axis=0))
+            targets.append(pelvis_target(samples[near]))
     if not rows:
         return out
     pts = body[rows]
@@ -202,9 +238,10 @@ def place_poses(poses: Sequence[LegPose], *, mounting: str = "facing_user",
 
 
 class LivePelvis:
-    """:func:`place_poses` frame by frame, for the live graph: the centre of the feet over the last ``window_s``
-    (a straight line fitted to it against time, read at the newest frame, so a user who walks in or drifts towards
-    the walker is not left behind by half a window), the same re-solve.  A frame without a track, a floor or time
+    """:func:`place_poses` frame by frame, for the live graph: the ankles' midpoint over the last ``window_s`` (a
+    straight line fitted to it against time, read at the newest frame, so a user who walks in or drifts towards the
+    walker is not left behind by half a window) with the lean of the feet's swing in that window
+    (:func:`pelvis_target`), the same re-solve.  A frame without a track, a floor or time
     that runs backwards starts the history afresh; a pose the tracker held (the same points and angles as the last
     one placed: a blanked view) is held as placed."""
 
@@ -238,19 +275,18 @@ class LivePelvis:
             return with_points(pose, np.array(held.points, dtype=np.float64), angles=held.angles)
         rot, t = floor.walker_transform()
         walker = moved_pose(pose, rot, t)
-        centre = feet_centre(np.asarray(walker.points, dtype=np.float64) @ self._flip.T)
-        if not np.all(np.isfinite(centre)):
+        sample = support_sample(np.asarray(walker.points, dtype=np.float64) @ self._flip.T)
+        if not np.all(np.isfinite(sample)):
             return pose
-        self._history.append((pose.stamp, centre[:2]))
+        self._history.append((pose.stamp, sample))
         while self._history[0][0] < pose.stamp - self.window_s:
             self._history.popleft()
         stamps = np.array([h[0] for h in self._history]) - pose.stamp
-        xy = np.stack([h[1] for h in self._history])
+        samples = np.stack([h[1] for h in self._history])
+        target = pelvis_target(samples)
         if stamps[0] < -0.5 * self.window_s:  # enough of a window for a slope
-            coef = np.polyfit(stamps, xy, 1)  # (2, 2): slope, value at the newest frame
-            target = coef[1]
-        else:
-            target = xy.mean(axis=0)
+            coef = np.polyfit(stamps, samples[:, :2], 1)  # (2, 2): slope, value at the newest frame
+            target += coef[1] - samples[:, :2].mean(axis=0)
         placed = _place(walker, self._flip, target)
         # the new hips and knees back in the camera frame; the feet stay the tracker's, bit for bit
         pts = np.array(pose.points, dtype=np.float64, copy=True)

@@ -526,7 +526,7 @@ def reported_poses(poses: Sequence[LegPose], *, hide_below: float, max_gap_s: fl
     """The poses an offline run reports for its merged track ``poses``: hidden feet bridged over stretches up to
     ``max_gap_s`` long (:func:`bridge_hidden_legs`; 0: not bridged), then points and angles low-passed at
     ``lowpass_hz`` (:func:`lowpass_poses`; 0: not filtered), then, with ``floors``, the out-of-view pelvis placed over
-    the centre of the feet averaged over ``pelvis_window_s`` and the hips, knees and joint angles re-solved with the
+    the ankles averaged over ``pelvis_window_s`` (:func:`walker_gait.core.pelvis.pelvis_target`) and the hips, knees and joint angles re-solved with the
     knees and feet held (:func:`walker_gait.core.pelvis.place_poses`, ``mounting`` as the tracker's; 0: as tracked).
     With ``floors`` (one per pose) all work in each frame's walker frame (:meth:`FloorPlane.walker_transform`), which
     stays with the walker while its camera rocks on the wheels: in the camera frame that rocking is motion of the
