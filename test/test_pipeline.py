@@ -469,6 +469,11 @@ def test_passes_must_be_known() -> None:
         for bad in (-0.5, float("nan"), float("inf"), "6"):
             with pytest.raises(ParameterError, match=name):
                 PipelineOptions(**{name: bad})
+    # a leg length in metres within an adult's range, or 0 (not measured); centimetres or a stature are refused
+    assert PipelineOptions(leg_length_m=0.9).leg_length_m == 0.9
+    for bad in (88.0, 1.75, -0.9, float("nan"), "0.9"):
+        with pytest.raises(ParameterError, match="leg_length_m"):
+            PipelineOptions(leg_length_m=bad)
 
 
 def _frames_of(session: Any) -> list[Any]:

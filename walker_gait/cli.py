@@ -210,7 +210,7 @@ def _pipeline_params(args: argparse.Namespace) -> Any:
 
 def _report_options(args: argparse.Namespace) -> dict[str, float]:
     """The reported poses' ``PipelineOptions`` given on the command line (the others keep the options' defaults)."""
-    return {name: value for name in ("bridge_hidden_s", "report_lowpass_hz", "report_pelvis_window_s")
+    return {name: value for name in ("bridge_hidden_s", "report_lowpass_hz", "report_pelvis_window_s", "leg_length_m")
             if (value := getattr(args, name, None)) is not None}
 
 
@@ -331,6 +331,12 @@ def build_parser() -> argparse.ArgumentParser:
                        "the tracked knees, ankles, heels and toes stay (with --passes both a window centred "
                        "on the frame, with forward the last S seconds, as the live graph; default 1.0; 0 = the "
                        "hips and knees as tracked; the feet, steps and events are the same either way)")
+        p.add_argument("--leg-length-m", type=float, default=None, metavar="M",
+                       help="the user's measured leg length in metres (the hip joint centre's height above the floor "
+                       "standing; floor to greater trochanter): the reported hips and knees with thighs and calves "
+                       "of that length, which the camera cannot measure (with the pelvis placed, "
+                       "--report-pelvis-window-s > 0; batch: every recording is taken to be this user's; default: not "
+                       "measured, the tracker's lengths)")
         p.add_argument("--quiet", action="store_true", help="no progress bar")
 
     p = sub.add_parser("demo", help="generate a sample walking session, process it, compare with ground truth")

@@ -52,6 +52,10 @@ NODE_PARAMS: dict[str, list[tuple[str, Any, str]]] = {
                                  "more walking than standing) and the joint angles "
                                  "solved again so that the tracked knees, ankles, heels and toes stay "
                                  "(`walker_gait.core.pelvis`; 0 = as tracked)"),
+        ("leg_length_m", 0.0, "m; the user's measured leg length (the hip joint centre's standing height above the "
+                              "floor: floor to greater trochanter): with the pelvis placed, the published thighs and "
+                              "calves have that length, each knee moved along its tracked calf (the camera measures "
+                              "neither; `walker_gait.core.pelvis.with_leg_length`; 0 = not measured: the tracker's)"),
         ("input_depth", 10, "queue depth of the three synchronised inputs: it absorbs bursts in which the tracker "
                             "is slower than the camera; small = track the newest frames (low latency, frames "
                             "skipped in every burst), large = work through the queued frames (none skipped, more "

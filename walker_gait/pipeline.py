@@ -68,9 +68,13 @@ class PipelineOptions:
     # the reported out-of-view pelvis placed over the ankles averaged over this long (core.pelvis; "both":
     # a centred window, "forward": the last window_s, as the live graph; 0 = the hips and knees as tracked)
     report_pelvis_window_s: float = 1.0
+    # the user's measured leg length (m, the hip joint centre's standing height above the floor): the reported thighs
+    # and calves of that length with the pelvis placed (core.pelvis.with_leg_length; 0 = not measured: as tracked)
+    leg_length_m: float = 0.0
 
     def __post_init__(self) -> None:
         from walker_gait.core.gait import GaitConfig
+        from walker_gait.core.pelvis import LEG_LENGTH_RANGE_M
         from walker_gait.core.segmentation import SegmenterConfig
         from walker_gait.core.smoothing import PASSES
         from walker_gait.core.tracker import preset as tracker_preset
@@ -81,6 +85,12 @@ class PipelineOptions:
             value = getattr(self, name)
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0):
                 raise ParameterError(f"{name} must be a finite number >= 0 (0 = off), got {value!r}")
+        leg = self.leg_length_m
+        if not (isinstance(leg, (int, float)) and math.isfinite(leg)) or leg != 0 and not (
+                LEG_LENGTH_RANGE_M[0] <= leg <= LEG_LENGTH_RANGE_M[1]):
+            raise ParameterError(f"leg_length_m must be 0 (not measured) or the standing height of the hip joint "
+                                 f"above the floor in metres, within {LEG_LENGTH_RANGE_M[0]}-{LEG_LENGTH_RANGE_M[1]}, "
+                                 f"got {leg!r}")
 
         if self.segmenter is None:
             self.segmenter = SegmenterConfig()
@@ -134,6 +144,9 @@ class PipelineOptions:
         pelvis = trk.pop("pelvis_window_s", None)  # the node's reported pelvis; a command line's own value wins
         if pelvis is not None and "report_pelvis_window_s" not in kwargs:
             kwargs["report_pelvis_window_s"] = float(pelvis)
+        leg = trk.pop("leg_length_m", None)
+        if leg is not None and "leg_length_m" not in kwargs:
+            kwargs["leg_length_m"] = float(leg)
         window = float(gait.pop("summary_window", 10.0))
         gait.pop("use_odometry", None)
         options = cls(
@@ -332,7 +345,8 @@ class FrameProcessor:
         if not self._two_way and options.report_pelvis_window_s > 0:
             from walker_gait.core.pelvis import LivePelvis
 
-            self._pelvis = LivePelvis(mounting=options.mounting, window_s=options.report_pelvis_window_s)
+            self._pelvis = LivePelvis(mounting=options.mounting, window_s=options.report_pelvis_window_s,
+                                      leg_length_m=options.leg_length_m or None)
 
     def set_camera_info(self, info: Any) -> None:
         """Apply a CameraInfo (``CameraInfoData`` or any object with width/height/k/d/p/distortion_model)."""
@@ -541,7 +555,7 @@ class FrameProcessor:
             shown = reported_poses(merged.poses, hide_below=self.options.tracker.hide_below,
                                    max_gap_s=self.options.bridge_hidden_s, lowpass_hz=self.options.report_lowpass_hz,
                                    floors=floors, pelvis_window_s=self.options.report_pelvis_window_s,
-                                   mounting=self.options.mounting)
+                                   mounting=self.options.mounting, leg_length_m=self.options.leg_length_m or None)
             # each pass analysed alone (the forward one as it was tracked): the merged track's steps are checked
             # against theirs (check_against_passes)
             assert self._fwd_alone is not None
@@ -1007,6 +1021,7 @@ def process_recording(path: Path, out_dir: Path, *, options: PipelineOptions | N
         "bridge_hidden_s": options.bridge_hidden_s if two_way else None,
         "report_lowpass_hz": options.report_lowpass_hz if two_way else None,
         "report_pelvis_window_s": options.report_pelvis_window_s,
+        "leg_length_m": (options.leg_length_m or None) if options.report_pelvis_window_s > 0 else None,
         "frames_total": n_frames,
         "frames_processed": processed,
         "frames_skipped": dict(skipped),

@@ -15,9 +15,10 @@ from walker_gait.bench.endtoend import (
     at_walker,
     recovery_time,
     steps_in_view,
+    true_leg_length,
 )
 from walker_gait.core.segmentation import RoiConfig
-from walker_gait.core.types import ANKLE, FloorPlane
+from walker_gait.core.types import ANKLE, HIP, FloorPlane
 
 
 def test_steps_in_view_need_a_second_with_the_user_in_view_before_the_heel_strike() -> None:
@@ -116,3 +117,18 @@ def test_angle_errors_pool_both_legs_per_angle_and_wrap_the_difference() -> None
     assert all(math.isnan(v) for v in none_mae.values())
     with pytest.raises(ValueError, match="shape"):
         angle_errors(est, truth[:3])
+
+
+def test_the_true_leg_length_is_the_standing_hips_height() -> None:
+    """What the bench tells the pipeline as the user's measured leg length is the synthetic user's hip height standing
+    still at the start (within the standing knees' slight flexion), different for each subject."""
+    from walker_gait.synth import SessionSpec, generate_session
+
+    lengths = []
+    for seed in (0, 1):
+        session = generate_session(SessionSpec.preset("normal", duration=1.0), rng=np.random.default_rng(seed))
+        rot, origin = session.world_from_camera[0, :3, :3], session.world_from_camera[0, :3, 3]
+        hips = session.leg_points[0, :, HIP] @ rot.T + origin  # world frame, z up from the floor
+        lengths.append(true_leg_length(session))
+        np.testing.assert_allclose(hips[:, 2], lengths[-1], atol=0.01)
+    assert abs(lengths[0] - lengths[1]) > 0.005

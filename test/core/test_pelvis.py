@@ -219,3 +219,65 @@ def test_a_held_pose_is_held_as_placed() -> None:
         np.testing.assert_array_equal(out[k].points, out[19].points)
         np.testing.assert_array_equal(out[k].angles, out[19].angles)
     assert not np.array_equal(out[24].points, out[19].points)
+
+
+def test_a_measured_leg_length_puts_the_hips_at_their_height() -> None:
+    """Tracked legs 6 cm short in all (the camera sees neither the thighs nor the knees) leave the hips low; with the
+    user's measured leg length the thighs and calves have its lengths, each knee moves along its tracked calf, the
+    feet stay bit for bit and the hips come to their true height, offline and live alike."""
+    poses, states = _walk(n=60, lean_deg=-4.0)
+    true_pts = np.stack([p.points for p in poses]) @ FLIP
+    foot = states[0, L.LEN_FOOT]
+    leg = states[0, L.LEN_THIGH] + states[0, L.LEN_CALF] + lm.ANKLE_HEIGHT * foot  # the hips' standing height
+    # the "tracked" poses: the same feet and lower calves on legs 6 cm short
+    held = np.stack([pv.held_points(p) for p in true_pts])
+    short, short_held = pv.with_leg_length(states, held, leg - 0.06)
+    solved = pv.place_pelvis(short, short_held, lm.hip_positions(states).mean(axis=1)[:, :2])
+    tracked = []
+    for p, x in zip(poses, solved):
+        pts = true_pts[len(tracked)].copy()
+        pts[:, [HIP, KNEE]] = lm.forward_kinematics(x).points[0][:, [HIP, KNEE]]
+        tracked.append(pv.with_points(p, pts @ FLIP, angles=lm.joint_angles(x)))
+    inner = slice(15, -15)
+    hip_z = true_pts[inner][:, :, HIP, 2]
+
+    def hips_off(placed: list[LegPose]) -> float:
+        got = np.stack([p.points for p in placed])[inner] @ FLIP
+        return float(np.abs(got[:, :, HIP, 2] - hip_z).mean())
+
+    assert hips_off(pv.place_poses(tracked)) > 0.04
+    placed = pv.place_poses(tracked, leg_length_m=leg)
+    assert hips_off(placed) < 0.015
+    after = np.stack([p.points for p in placed]) @ FLIP
+    np.testing.assert_array_equal(after[:, :, ANKLE:], np.stack([p.points for p in tracked])[:, :, ANKLE:] @ FLIP)
+    # the model's lengths: Winter's shares of the leg less the ankle height; the knee near the tracked calf's line
+    legs = leg - lm.ANKLE_HEIGHT * foot
+    np.testing.assert_allclose(np.linalg.norm(after[:, :, HIP] - after[:, :, KNEE], axis=-1), pv.THIGH_SHARE * legs,
+                               atol=2e-3)
+    calf_t = np.stack([p.points for p in tracked])[:, :, KNEE] @ FLIP - after[:, :, ANKLE]
+    calf_p = after[:, :, KNEE] - after[:, :, ANKLE]
+    cos = np.sum(calf_t * calf_p, axis=-1) / np.linalg.norm(calf_t, axis=-1) / np.linalg.norm(calf_p, axis=-1)
+    ang = np.degrees(np.arccos(np.clip(cos, -1.0, 1.0)))  # least squares with the feet: near the line, not on it
+    assert np.median(ang) < 5.0 and ang.max() < 8.0
+    # live: the same lengths
+    floor = _floor()
+    rot, t = floor.walker_transform()
+    live = pv.LivePelvis(leg_length_m=leg)
+    out = [live.place(pv.moved_pose(p, rot.T, -(rot.T @ t)), floor) for p in tracked]
+    live_pts = np.stack([floor.to_walker(p.points) for p in out]) @ FLIP
+    np.testing.assert_allclose(np.linalg.norm(live_pts[:, :, HIP] - live_pts[:, :, KNEE], axis=-1),
+                               pv.THIGH_SHARE * legs, atol=2e-3)
+    assert float(np.abs(live_pts[inner][:, :, HIP, 2] - hip_z).mean()) < 0.015
+
+
+def test_a_leg_length_must_be_in_metres_within_an_adults_range() -> None:
+    assert pv.check_leg_length(None) is None
+    assert pv.check_leg_length(0.9) == 0.9
+    for bad in (88.0, 1.75, 0.2, float("nan")):
+        with pytest.raises(ValueError, match="leg_length_m .* metres"):
+            pv.check_leg_length(bad)
+    poses, _ = _walk(n=5)
+    with pytest.raises(ValueError, match="leg_length_m"):
+        pv.place_poses(poses, leg_length_m=90.0)
+    with pytest.raises(ValueError, match="leg_length_m"):
+        pv.LivePelvis(leg_length_m=90.0)

@@ -698,3 +698,22 @@ def test_stamp_sync_hands_frames_out_in_stamp_order_when_a_lost_part_delays_one(
         M.stamp_to_ns(_part(1.0).header.stamp), M.stamp_to_ns(_part(1.1).header.stamp)]
     assert ready[0]["track"] is track1 and sync.take_stood_in() == [(M.stamp_to_ns(track1.header.stamp), ("floor",))]
     assert list(sync.pending) == [(M.stamp_to_ns(_part(1.2).header.stamp), "cam")]
+
+
+def test_leg_tracker_leg_length_reaches_the_placement_and_is_validated(rclpy_context: None) -> None:
+    """``leg_length_m`` (m; 0 = not measured) goes to the reported pelvis's placement; centimetres are refused."""
+    from walker_gait.config import ParameterError
+    from walker_gait.ros.nodes import LegTrackerNode
+
+    node = LegTrackerNode(parameter_overrides=[rclpy.parameter.Parameter("leg_length_m", value=0.88)])
+    try:
+        assert node.pelvis is not None and node.pelvis.leg_length_m == pytest.approx(0.88)
+    finally:
+        node.destroy_node()
+    node = LegTrackerNode()
+    try:
+        assert node.pelvis is not None and node.pelvis.leg_length_m is None
+    finally:
+        node.destroy_node()
+    with pytest.raises(ParameterError, match="leg_tracker.leg_length_m .*metres"):
+        LegTrackerNode(parameter_overrides=[rclpy.parameter.Parameter("leg_length_m", value=88.0)])

@@ -243,12 +243,19 @@ def recording_frames(session: Any, frames: Sequence[np.ndarray]) -> list[SimpleN
             for i, data in enumerate(frames)]
 
 
+def true_leg_length(session: Any) -> float:
+    """The synthetic user's leg length as a clinic measures it (m): the hip joint centre's height above the floor
+    standing with straight legs, thigh + shank + the ankle centre's height above the sole."""
+    d = session.params.dims
+    return float(d.thigh_length + d.shank_length + d.ankle_height)
+
+
 def run_pipeline(session: Any, rendered: Rendered, *, preset: str = "default", cue: str | None = None, seed: int = 0,
                  max_frames: int | None = None, overrides: dict[str, Any] | None = None,
-                 passes: str = "both") -> PipelineRun:
+                 passes: str = "both", leg_length_m: float = 0.0) -> PipelineRun:
     """The offline pipeline (``FrameProcessor``) on a session's rendered frames, as ``walker-gait process``
-    runs it; tracker ``preset`` with ``overrides`` (``TrackerConfig`` fields) and ``cue``; ``passes`` as
-    ``PipelineOptions.passes`` (``forward``: the live graph's one pass)."""
+    runs it; tracker ``preset`` with ``overrides`` (``TrackerConfig`` fields) and ``cue``; ``passes`` and
+    ``leg_length_m`` as ``PipelineOptions``' (``forward``: the live graph's one pass)."""
     import dataclasses
 
     from walker_gait.core.tracker import preset as tracker_preset
@@ -261,7 +268,7 @@ def run_pipeline(session: Any, rendered: Rendered, *, preset: str = "default", c
     if changes:
         tracker = dataclasses.replace(tracker, **changes)
     proc = FrameProcessor(PipelineOptions(preset=preset, tracker=tracker, seed=seed, write_mcap=False,
-                                          write_report=False, passes=passes))
+                                          write_report=False, passes=passes, leg_length_m=leg_length_m))
     proc.set_camera_info(SimpleNamespace(**session.camera_info()))
     n = len(rendered.frames) if max_frames is None else min(len(rendered.frames), max_frames)
     intr = session.intrinsics
@@ -289,14 +296,14 @@ def run_pipeline(session: Any, rendered: Rendered, *, preset: str = "default", c
 
 def evaluate(session: Any, *, preset: str = "default", cue: str | None = None, seed: int = 0,
              max_frames: int | None = None, overrides: dict[str, Any] | None = None,
-             rendered: Rendered | None = None, passes: str = "both") -> Score:
-    """Run the pipeline on ``session`` (a ``walker_gait.synth.Session``) and score it (``passes`` as
-    ``PipelineOptions.passes``)."""
+             rendered: Rendered | None = None, passes: str = "both", leg_length_m: float = 0.0) -> Score:
+    """Run the pipeline on ``session`` (a ``walker_gait.synth.Session``) and score it (``passes`` and
+    ``leg_length_m`` as ``PipelineOptions``')."""
     from walker_gait.bench.gait import match_steps, session_summaries
 
     rendered = rendered if rendered is not None else render(session, max_frames)
     run = run_pipeline(session, rendered, preset=preset, cue=cue, seed=seed, max_frames=max_frames,
-                       overrides=overrides, passes=passes)
+                       overrides=overrides, passes=passes, leg_length_m=leg_length_m)
     n = len(run.poses)
     intr = session.intrinsics
     timing, tracker_ms, poses, steps = run.timing_ms, run.tracker_ms, run.poses, run.steps

@@ -18,6 +18,10 @@ feet, the steps and the events are unchanged.  The angles are solved for the rep
 tracker reports as a weighted mean over its particles, with the toe measured from the data and flat feet levelled),
 so they describe the pose the points show.
 
+The hips' height is the leg lengths', which nothing in view measures either: given the user's measured leg length
+(``leg_length_m``, the hip joint centre's standing height above the floor, as gait labs record it), the thighs and
+calves are reported with it (:func:`with_leg_length`).
+
 Frames: the poses are given in a floor-aligned frame (the walker frame of
 :meth:`~walker_gait.core.types.FloorPlane.walker_transform`, z up) and ``mounting`` says how the body frame of
 :mod:`~walker_gait.core.leg_model` (anatomical forward / left / up) lies in it.
@@ -40,11 +44,14 @@ from walker_gait.core.types import ANKLE, HEEL, HIP, KNEE, TOE, FloorPlane, LegP
 FloatArray = NDArray[np.float64]
 
 __all__ = [
+    "LEG_LENGTH_RANGE_M",
     "LivePelvis",
     "PLACE_WINDOW_S",
     "STAND_LEAN_M",
+    "THIGH_SHARE",
     "WALK_LEAN_M",
     "WALK_SWING_M",
+    "check_leg_length",
     "held_points",
     "lean",
     "moved_pose",
@@ -53,6 +60,7 @@ __all__ = [
     "place_poses",
     "pose_state",
     "support_sample",
+    "with_leg_length",
     "with_points",
 ]
 
@@ -185,21 +193,65 @@ def pelvis_target(samples: FloatArray) -> FloatArray:
     return s[:, :2].mean(axis=0) + np.array([lean(s[:, 2]), 0.0])
 
 
+THIGH_SHARE = 0.245 / 0.491
+"""The thigh's share of thigh + shank for a measured leg length (Winter's segment lengths as fractions of stature:
+thigh 0.245, leg 0.246)."""
+LEG_LENGTH_RANGE_M = (0.5, 1.3)
+"""Leg lengths (m) :func:`with_leg_length` accepts: adults' hips stand 0.65-1.05 m above the floor; a value outside
+is a mistake (centimetres, a stature) rather than a user."""
+
+
+def check_leg_length(leg_length_m: float | None) -> float | None:
+    """``leg_length_m`` as a float (``None``: not measured), or a ``ValueError`` naming the accepted range."""
+    if leg_length_m is None:
+        return None
+    lo, hi = LEG_LENGTH_RANGE_M
+    value = float(leg_length_m)
+    if not lo <= value <= hi:
+        msg = (f"leg_length_m must be the standing height of the hip joint above the floor in metres, within "
+               f"{lo}-{hi}, got {leg_length_m!r}")
+        raise ValueError(msg)
+    return value
+
+
+def with_leg_length(states: FloatArray, held: FloatArray, leg_length_m: float) -> tuple[FloatArray, FloatArray]:
+    """``states`` ``(F, 23)`` with the thigh and calf lengths of a measured leg length (the hip joint centre's height
+    above the floor standing: the thigh and the calf share it less the model's ankle height as :data:`THIGH_SHARE`
+    says) and ``held`` ``(F, 2, 4, 3)`` (:func:`held_points`) with each knee moved along its tracked calf (the lower
+    calf is in view, the knee is not) to the new calf length.  The camera sees neither the thigh nor the knee, so the
+    tracker's leg lengths are the model's guess (per session 5 cm off in height at the hips, sd); a clinic measures
+    the leg length anyway (GAITRite and gait labs normalise by it)."""
+    x = np.array(states, dtype=np.float64, copy=True)
+    h = np.array(held, dtype=np.float64, copy=True)
+    legs = leg_length_m - lm.ANKLE_HEIGHT * x[:, L.LEN_FOOT]
+    x[:, L.LEN_THIGH] = THIGH_SHARE * legs
+    x[:, L.LEN_CALF] = (1.0 - THIGH_SHARE) * legs
+    x = lm.clip_to_limits(x)
+    calf = h[:, :, 0] - h[:, :, 1]  # knee - ankle
+    norm = np.linalg.norm(calf, axis=-1, keepdims=True)
+    up = np.array([0.0, 0.0, 1.0])
+    u = np.where(norm > 1e-9, calf / np.maximum(norm, 1e-9), up)
+    h[:, :, 0] = h[:, :, 1] + x[:, L.LEN_CALF][:, None, None] * u
+    return x, h
+
+
 def _placeable(pose: LegPose) -> bool:
     return (pose.status in (TrackStatus.TRACKING, TrackStatus.DEGRADED) and np.all(np.isfinite(pose.points))
             and np.all(np.isfinite(pose.angles)))
 
 
 def place_poses(poses: Sequence[LegPose], *, mounting: str = "facing_user",
-                window_s: float = PLACE_WINDOW_S) -> list[LegPose]:
+                window_s: float = PLACE_WINDOW_S, leg_length_m: float | None = None) -> list[LegPose]:
     """The poses (floor-aligned frame, see the module docstring) with each tracked frame's pelvis placed where the
     ankles in a centred window of ``window_s`` put it (:func:`pelvis_target`) and its hips, knees and joint angles
-    re-solved with the knees, ankles, heels and toes held (:func:`place_pelvis`).  Frames that
+    re-solved with the knees, ankles, heels and toes held (:func:`place_pelvis`); with a measured ``leg_length_m``
+    the thighs and calves of that length, each knee moved along its tracked calf (:func:`with_leg_length`).  Frames that
     are neither ``TRACKING`` nor ``DEGRADED`` or lack points or angles are returned as given; a pose the tracker held
     (the same points and angles as the frame before) is held as placed."""
     if not window_s > 0:
         raise ValueError(f"window_s must be > 0, got {window_s}")
     flip = _flip(mounting)
+    leg_length_m = check_leg_length(leg_length_m)
     out = list(poses)
     idx = [i for i, p in enumerate(out) if _placeable(p)]
     if not idx:
@@ -220,7 +272,10 @@ def place_poses(poses: Sequence[LegPose], *, mounting: str = "facing_user",
     pts = body[rows]
     target = np.stack(targets)
     states = np.stack([pose_state(p, out[idx[k]].angles) for p, k in zip(pts, rows)])
-    new = place_pelvis(states, pts[:, :, _HELD], target)
+    held = pts[:, :, _HELD]
+    if leg_length_m is not None:
+        states, held = with_leg_length(states, held, leg_length_m)
+    new = place_pelvis(states, held, target)
     kin = lm.forward_kinematics(new).points
     for j, k in enumerate(rows):
         i = idx[k]
@@ -243,12 +298,14 @@ class LivePelvis:
     walker is not left behind by half a window) with the lean of the feet's swing in that window
     (:func:`pelvis_target`), the same re-solve.  A frame without a track, a floor or time
     that runs backwards starts the history afresh; a pose the tracker held (the same points and angles as the last
-    one placed: a blanked view) is held as placed."""
+    one placed: a blanked view) is held as placed.  ``leg_length_m`` as :func:`place_poses`'s."""
 
-    def __init__(self, *, mounting: str = "facing_user", window_s: float = PLACE_WINDOW_S) -> None:
+    def __init__(self, *, mounting: str = "facing_user", window_s: float = PLACE_WINDOW_S,
+                 leg_length_m: float | None = None) -> None:
         if not window_s > 0:
             raise ValueError(f"window_s must be > 0, got {window_s}")
         self._flip = _flip(mounting)
+        self.leg_length_m = check_leg_length(leg_length_m)
         self.window_s = float(window_s)
         self._history: deque[tuple[float, FloatArray]] = deque()
         self._last: tuple[LegPose, LegPose] | None = None  # the last pose placed, as given and as placed
@@ -287,7 +344,7 @@ class LivePelvis:
         if stamps[0] < -0.5 * self.window_s:  # enough of a window for a slope
             coef = np.polyfit(stamps, samples[:, :2], 1)  # (2, 2): slope, value at the newest frame
             target += coef[1] - samples[:, :2].mean(axis=0)
-        placed = _place(walker, self._flip, target)
+        placed = _place(walker, self._flip, target, self.leg_length_m)
         # the new hips and knees back in the camera frame; the feet stay the tracker's, bit for bit
         pts = np.array(pose.points, dtype=np.float64, copy=True)
         pts[:, [HIP, KNEE]] = (placed.points[:, [HIP, KNEE]] - t) @ rot
@@ -302,10 +359,14 @@ def moved_pose(pose: LegPose, rot: FloatArray, t: FloatArray) -> LegPose:
     return dataclasses.replace(pose, points=np.asarray(pose.points, dtype=np.float64) @ rot.T + t, segments=segs)
 
 
-def _place(pose: LegPose, flip: FloatArray, target: FloatArray) -> LegPose:
+def _place(pose: LegPose, flip: FloatArray, target: FloatArray, leg_length_m: float | None) -> LegPose:
     """One pose (floor-aligned frame) with its pelvis at ``target`` (body frame x, y) and its legs re-solved."""
     pts = np.asarray(pose.points, dtype=np.float64) @ flip.T
-    new = place_pelvis(pose_state(pts, pose.angles), held_points(pts), target)
+    state, held = pose_state(pts, pose.angles), held_points(pts)
+    if leg_length_m is not None:
+        xs, hs = with_leg_length(state[None], held[None], leg_length_m)
+        state, held = xs[0], hs[0]
+    new = place_pelvis(state, held, target)
     kin = lm.forward_kinematics(new).points[0]
     placed = pts.copy()
     placed[:, HIP], placed[:, KNEE] = kin[:, HIP], kin[:, KNEE]

@@ -522,12 +522,14 @@ def lowpass_poses(poses: Sequence[LegPose], *, cutoff_hz: float = LOWPASS_HZ,
 
 def reported_poses(poses: Sequence[LegPose], *, hide_below: float, max_gap_s: float = BRIDGE_MAX_S,
                    lowpass_hz: float = LOWPASS_HZ, floors: Sequence[FloorPlane] | None = None,
-                   pelvis_window_s: float = 0.0, mounting: str = "facing_user") -> list[LegPose]:
+                   pelvis_window_s: float = 0.0, mounting: str = "facing_user",
+                   leg_length_m: float | None = None) -> list[LegPose]:
     """The poses an offline run reports for its merged track ``poses``: hidden feet bridged over stretches up to
     ``max_gap_s`` long (:func:`bridge_hidden_legs`; 0: not bridged), then points and angles low-passed at
-    ``lowpass_hz`` (:func:`lowpass_poses`; 0: not filtered), then, with ``floors``, the out-of-view pelvis placed over
-    the ankles averaged over ``pelvis_window_s`` (:func:`walker_gait.core.pelvis.pelvis_target`) and the hips, knees and joint angles re-solved with the
-    knees and feet held (:func:`walker_gait.core.pelvis.place_poses`, ``mounting`` as the tracker's; 0: as tracked).
+    ``lowpass_hz`` (:func:`lowpass_poses`; 0: not filtered), then, with ``floors``, the out-of-view pelvis placed
+    over the ankles averaged over ``pelvis_window_s`` and the hips, knees and joint angles re-solved with the knees
+    and feet held (:func:`walker_gait.core.pelvis.place_poses`, ``mounting`` as the tracker's, the thighs and calves
+    of a measured ``leg_length_m`` if given; 0: as tracked).
     With ``floors`` (one per pose) all work in each frame's walker frame (:meth:`FloorPlane.walker_transform`), which
     stays with the walker while its camera rocks on the wheels: in the camera frame that rocking is motion of the
     legs a low-pass would take out; frames without a valid floor are reported as tracked.  The gait analyzer reads
@@ -554,7 +556,7 @@ def reported_poses(poses: Sequence[LegPose], *, hide_below: float, max_gap_s: fl
     if floors is None:
         return out
     if place:
-        out = place_poses(out, mounting=mounting, window_s=pelvis_window_s)
+        out = place_poses(out, mounting=mounting, window_s=pelvis_window_s, leg_length_m=leg_length_m)
     shown = []
     for pose, first, done, wt in zip(poses, before, out, frames):
         if wt is None or done is first:

@@ -344,9 +344,15 @@ class LegTrackerNode(WalkerNode):
         window = float(self.declare_parameter("pelvis_window_s", 1.0).value)
         if not (math.isfinite(window) and window >= 0):
             raise ParameterError(f"leg_tracker.pelvis_window_s must be a finite number >= 0 (0 = off), got {window}")
-        from walker_gait.core.pelvis import LivePelvis
+        leg = float(self.declare_parameter("leg_length_m", 0.0).value)
+        from walker_gait.core.pelvis import LivePelvis, check_leg_length
 
-        self.pelvis = LivePelvis(mounting=self.mounting, window_s=window) if window > 0 else None
+        try:
+            check_leg_length(leg if leg != 0 else None)
+        except ValueError as exc:
+            raise ParameterError(f"leg_tracker.{exc} (0 = not measured)") from None
+        self.pelvis = (LivePelvis(mounting=self.mounting, window_s=window, leg_length_m=leg or None)
+                       if window > 0 else None)
         self.tracker: Any = None
         self.intrinsics: Any = None
         self.sync = StampSync(("points", "mask", "floor"), stand_in=("floor",))
