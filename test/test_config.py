@@ -76,7 +76,8 @@ def test_camera_params_reach_every_stage_and_must_match(repo_root: Path) -> None
     assert (options.report_pelvis_window_s, options.leg_length_m) == (1.0, 0.0)
     given = PipelineOptions.from_params(params, {"leg_tracker.leg_length_m": 0.91, "leg_tracker.pelvis_window_s": 0.5})
     assert (given.report_pelvis_window_s, given.leg_length_m) == (0.5, 0.91)
-    assert PipelineOptions.from_params(params, {"leg_tracker.leg_length_m": 0.91}, leg_length_m=0.85).leg_length_m == 0.85
+    cli = PipelineOptions.from_params(params, {"leg_tracker.leg_length_m": 0.91}, leg_length_m=0.85)
+    assert cli.leg_length_m == 0.85
     params["floor_segmentation"]["depth_format"] = "kinect_raw"  # disagrees with depth_to_cloud's `auto`
     with pytest.raises(ParameterError, match="floor_segmentation.depth_format must match"):
         PipelineOptions.from_params(params, {})

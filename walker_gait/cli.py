@@ -326,9 +326,9 @@ def build_parser() -> argparse.ArgumentParser:
                        "reads the tracked poses either way)")
         p.add_argument("--report-pelvis-window-s", type=float, default=None, metavar="S",
                        help="report the hips and knees, which the camera does not see, with the pelvis over the "
-                       "ankles (their midpoint averaged over S seconds, a few cm ahead of it: more while the feet swing, "
-                       "walking, than standing) and the legs' joint angles solved again so that "
-                       "the tracked knees, ankles, heels and toes stay (with --passes both a window centred "
+                       "ankles (their midpoint averaged over S seconds, a few cm ahead of it: more while the feet "
+                       "swing, walking, than standing; facing the feet's heading) and the legs' joint angles solved "
+                       "again so that the tracked knees, ankles, heels and toes stay (with --passes both a window centred "
                        "on the frame, with forward the last S seconds, as the live graph; default 1.0; 0 = the "
                        "hips and knees as tracked; the feet, steps and events are the same either way)")
         p.add_argument("--leg-length-m", type=float, default=None, metavar="M",

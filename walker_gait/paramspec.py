@@ -48,8 +48,8 @@ NODE_PARAMS: dict[str, list[tuple[str, Any, str]]] = {
         ("use_rectified", True, "as depth_to_cloud.use_rectified (must match it)"),
         ("seed", 0, "seed of the particle filter's random generator"),
         ("pelvis_window_s", 1.0, "s; the published hips and knees, which the camera does not see, with the pelvis "
-                                 "over the ankles (their midpoint fitted over the last this long, a few cm ahead of it: "
-                                 "more walking than standing) and the joint angles "
+                                 "over the ankles (their midpoint fitted over the last this long, a few cm ahead of "
+                                 "it: more walking than standing; facing the feet's heading) and the joint angles "
                                  "solved again so that the tracked knees, ankles, heels and toes stay "
                                  "(`walker_gait.core.pelvis`; 0 = as tracked)"),
         ("leg_length_m", 0.0, "m; the user's measured leg length (the hip joint centre's standing height above the "

@@ -50,12 +50,19 @@ def test_the_pelvis_leads_the_ankles_more_walking_than_standing() -> None:
     leans = [pv.lean(a * np.sin(2 * np.pi * t)) for a in (0.1, 0.2, 0.3, 0.5)]
     assert pv.STAND_LEAN_M < leans[0] < leans[1] < pv.WALK_LEAN_M
     assert leans[2] == leans[3] == pytest.approx(pv.WALK_LEAN_M)
-    # the target: the ankles' mean midpoint, that far ahead; support_sample reads the midpoint and the separation
+    # support_sample reads the ankles' midpoint and separation and the feet's heading (toe-outs of 10 deg cancel)
     pts = np.zeros((2, 5, 3))
     pts[0, ANKLE], pts[1, ANKLE] = [0.2, 0.1, 0.09], [-0.1, -0.1, 0.09]
-    np.testing.assert_allclose(pv.support_sample(pts), [0.05, 0.0, 0.3])
-    samples = np.array([[0.0, 0.01, 0.0], [0.02, -0.01, 0.0]])
-    np.testing.assert_allclose(pv.pelvis_target(samples), [0.01 + pv.STAND_LEAN_M, 0.0])
+    out = np.radians(10.0)
+    pts[0, TOE, :2], pts[1, TOE, :2] = [np.cos(out), np.sin(out)], [np.cos(out), -np.sin(out)]
+    np.testing.assert_allclose(pv.support_sample(pts), [0.05, 0.0, 0.3, 2 * np.cos(out), 0.0], atol=1e-12)
+    # the target: the ankles' mean midpoint, the lean ahead of it along the feet's heading, facing it
+    samples = np.array([[0.0, 0.01, 0.0, 1.0, 0.0], [0.02, -0.01, 0.0, 1.0, 0.0]])
+    np.testing.assert_allclose(pv.pelvis_target(samples), [0.01 + pv.STAND_LEAN_M, 0.0, 0.0], atol=1e-12)
+    turned = samples.copy()
+    turned[:, 3:] = [np.cos(0.3), np.sin(0.3)]
+    np.testing.assert_allclose(pv.pelvis_target(turned),
+                               [0.01 + pv.STAND_LEAN_M * np.cos(0.3), pv.STAND_LEAN_M * np.sin(0.3), 0.3], atol=1e-12)
     pts[1, ANKLE] = np.nan
     assert np.all(np.isnan(pv.support_sample(pts)[[0, 2]]))
 
@@ -281,3 +288,27 @@ def test_a_leg_length_must_be_in_metres_within_an_adults_range() -> None:
         pv.place_poses(poses, leg_length_m=90.0)
     with pytest.raises(ValueError, match="leg_length_m"):
         pv.LivePelvis(leg_length_m=90.0)
+
+
+def test_the_placed_pelvis_faces_the_feet() -> None:
+    """A pelvis tracked turned 15 deg from where the feet point (its turn is as unseen as its place), the legs reaching
+    the same knees and feet with other hip angles, is reported facing the feet's heading with the hip rotations of the
+    same walk tracked untwisted; the feet stay bit for bit."""
+    poses, states = _walk(n=60)
+    turned = []
+    for p, x in zip(poses, states):
+        pts = np.asarray(p.points) @ FLIP
+        y = pv.place_pelvis(x, pv.held_points(pts), lm.hip_positions(x)[0].mean(axis=0)[:2], yaw=np.radians(15.0))
+        twisted = pts.copy()
+        twisted[:, [HIP, KNEE]] = lm.forward_kinematics(y).points[0][:, [HIP, KNEE]]
+        turned.append(pv.with_points(p, twisted @ FLIP, angles=lm.joint_angles(y)))
+    placed, straight = pv.place_poses(turned), pv.place_poses(poses)
+    got = np.stack([p.points for p in placed]) @ FLIP
+    d = got[:, 0, HIP] - got[:, 1, HIP]
+    assert np.abs(np.degrees(np.arctan2(-d[:, 0], d[:, 1]))).max() < 1.0
+    np.testing.assert_array_equal(got[:, :, ANKLE:], np.stack([p.points for p in turned])[:, :, ANKLE:] @ FLIP)
+    rotation = [2, 8]  # JOINT_NAMES: left / right hip rotation
+    twist = np.stack([p.angles for p in turned])[:, rotation] - np.stack([p.angles for p in straight])[:, rotation]
+    left = np.stack([p.angles for p in placed])[:, rotation] - np.stack([p.angles for p in straight])[:, rotation]
+    assert np.abs(twist).mean() > np.radians(5)
+    assert np.abs(left).max() < np.radians(1)
