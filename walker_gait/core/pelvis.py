@@ -57,8 +57,8 @@ __all__ = [
     "held_points",
     "lean",
     "moved_pose",
-    "place_pelvis",
     "pelvis_target",
+    "place_pelvis",
     "place_poses",
     "pose_state",
     "support_sample",
@@ -262,8 +262,8 @@ def place_poses(poses: Sequence[LegPose], *, mounting: str = "facing_user",
     """The poses (floor-aligned frame, see the module docstring) with each tracked frame's pelvis placed where the
     ankles in a centred window of ``window_s`` put it (:func:`pelvis_target`) and its hips, knees and joint angles
     re-solved with the knees, ankles, heels and toes held (:func:`place_pelvis`); with a measured ``leg_length_m``
-    the thighs and calves of that length, each knee moved along its tracked calf (:func:`with_leg_length`).  Frames that
-    are neither ``TRACKING`` nor ``DEGRADED`` or lack points or angles are returned as given; a pose the tracker held
+    the thighs and calves of that length, each knee moved along its tracked calf (:func:`with_leg_length`).  Frames
+    that are neither ``TRACKING`` nor ``DEGRADED`` or lack points or angles are returned as given; a pose the tracker held
     (the same points and angles as the frame before) is held as placed."""
     if not window_s > 0:
         raise ValueError(f"window_s must be > 0, got {window_s}")
@@ -286,14 +286,7 @@ def place_poses(poses: Sequence[LegPose], *, mounting: str = "facing_user",
             targets.append(pelvis_target(samples[near]))
     if not rows:
         return out
-    pts = body[rows]
-    target = np.stack(targets)
-    states = np.stack([pose_state(p, out[idx[k]].angles) for p, k in zip(pts, rows)])
-    held = pts[:, :, _HELD]
-    if leg_length_m is not None:
-        states, held = with_leg_length(states, held, leg_length_m)
-    new = place_pelvis(states, held, target[:, :2], yaw=target[:, 2])
-    kin = lm.forward_kinematics(new).points
+    new, placed = _solve(body[rows], np.stack([out[idx[k]].angles for k in rows]), np.stack(targets), leg_length_m)
     for j, k in enumerate(rows):
         i = idx[k]
         before = poses[i - 1] if i > 0 else None
@@ -303,16 +296,14 @@ def place_poses(poses: Sequence[LegPose], *, mounting: str = "facing_user",
             out[i] = with_points(poses[i], np.array(out[i - 1].points, dtype=np.float64),
                                  angles=out[i - 1].angles)
             continue
-        placed = pts[j].copy()
-        placed[:, [HIP, KNEE]] = kin[j][:, [HIP, KNEE]]
-        out[i] = with_points(out[i], placed @ flip, angles=lm.joint_angles(new[j]))
+        out[i] = with_points(out[i], placed[j] @ flip, angles=lm.joint_angles(new[j]))
     return out
 
 
 class LivePelvis:
     """:func:`place_poses` frame by frame, for the live graph: the ankles' midpoint over the last ``window_s`` (a
     straight line fitted to it against time, read at the newest frame, so a user who walks in or drifts towards the
-    walker is not left behind by half a window) with the lean of the feet's swing in that window
+    walker is not left behind by half a window) with the lean of the feet's swing and their heading in that window
     (:func:`pelvis_target`), the same re-solve.  A frame without a track, a floor or time
     that runs backwards starts the history afresh; a pose the tracker held (the same points and angles as the last
     one placed: a blanked view) is held as placed.  ``leg_length_m`` as :func:`place_poses`'s."""
@@ -361,11 +352,12 @@ class LivePelvis:
         if stamps[0] < -0.5 * self.window_s:  # enough of a window for a slope
             coef = np.polyfit(stamps, samples[:, :2], 1)  # (2, 2): slope, value at the newest frame
             target[:2] += coef[1] - samples[:, :2].mean(axis=0)
-        placed = _place(walker, self._flip, target, self.leg_length_m)
+        new, placed = _solve((np.asarray(walker.points, dtype=np.float64) @ self._flip.T)[None],
+                             np.asarray(pose.angles)[None], target[None], self.leg_length_m)
         # the new hips and knees back in the camera frame; the feet stay the tracker's, bit for bit
         pts = np.array(pose.points, dtype=np.float64, copy=True)
-        pts[:, [HIP, KNEE]] = (placed.points[:, [HIP, KNEE]] - t) @ rot
-        out = with_points(pose, pts, angles=placed.angles)
+        pts[:, [HIP, KNEE]] = (placed[0][:, [HIP, KNEE]] @ self._flip - t) @ rot
+        out = with_points(pose, pts, angles=lm.joint_angles(new[0]))
         self._last = (pose, out)
         return out
 
@@ -376,19 +368,19 @@ def moved_pose(pose: LegPose, rot: FloatArray, t: FloatArray) -> LegPose:
     return dataclasses.replace(pose, points=np.asarray(pose.points, dtype=np.float64) @ rot.T + t, segments=segs)
 
 
-def _place(pose: LegPose, flip: FloatArray, target: FloatArray, leg_length_m: float | None) -> LegPose:
-    """One pose (floor-aligned frame) with its pelvis at ``target`` (body frame x, y, azimuth) and its legs
-    re-solved."""
-    pts = np.asarray(pose.points, dtype=np.float64) @ flip.T
-    state, held = pose_state(pts, pose.angles), held_points(pts)
+def _solve(points: FloatArray, angles: FloatArray, target: FloatArray,
+           leg_length_m: float | None) -> tuple[FloatArray, FloatArray]:
+    """Poses ``points`` ``(F, 2, 5, 3)`` (body frame) with joint ``angles`` ``(F, 12)`` placed at ``target`` ``(F, 3)``
+    (:func:`pelvis_target`'s x, y, azimuth), the thighs and calves of ``leg_length_m`` if given: the solved states
+    ``(F, 23)`` and the points with the solution's hips and knees, the rest as given."""
+    states = np.stack([pose_state(p, a) for p, a in zip(points, angles)])
+    held = np.asarray(points, dtype=np.float64)[:, :, _HELD]
     if leg_length_m is not None:
-        xs, hs = with_leg_length(state[None], held[None], leg_length_m)
-        state, held = xs[0], hs[0]
-    new = place_pelvis(state, held, target[:2], yaw=target[2])
-    kin = lm.forward_kinematics(new).points[0]
-    placed = pts.copy()
-    placed[:, HIP], placed[:, KNEE] = kin[:, HIP], kin[:, KNEE]
-    return with_points(pose, placed @ flip, angles=lm.joint_angles(new))
+        states, held = with_leg_length(states, held, leg_length_m)
+    new = place_pelvis(states, held, target[:, :2], yaw=target[:, 2])
+    placed = np.array(points, dtype=np.float64, copy=True)
+    placed[:, :, [HIP, KNEE]] = lm.forward_kinematics(new).points[:, :, [HIP, KNEE]]
+    return new, placed
 
 
 def with_points(pose: LegPose, pts: FloatArray, *, angles: FloatArray | None = None) -> LegPose:
