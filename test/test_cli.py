@@ -42,20 +42,24 @@ def test_process_real_bag_writes_every_output(real_bag: Path, tmp_path: Path) ->
 
 def test_passes_choose_one_or_two_tracking_passes(real_bag: Path, tmp_path: Path) -> None:
     """``--passes forward`` tracks as the live graph does; the default tracks forwards and backwards and says so;
-    anything else is refused by the parser."""
-    one = walker_gait("process", str(real_bag), "--out", str(tmp_path / "one"), "--passes", "forward")
+    anything else is refused by the parser.  A measured leg length reaches the metadata; one in centimetres is
+    refused, naming it."""
+    one = walker_gait("process", str(real_bag), "--out", str(tmp_path / "one"), "--passes", "forward",
+                      "--leg-length-m", "0.9")
     two = walker_gait("process", str(real_bag), "--out", str(tmp_path / "two"))
     assert one.returncode == 0 and two.returncode == 0, one.stderr + two.stderr
     meta_one = json.loads((tmp_path / "one" / "summary.json").read_text())["metadata"]
     meta_two = json.loads((tmp_path / "two" / "summary.json").read_text())["metadata"]
     assert meta_one["passes"] == "forward" and meta_two["passes"] == "both"
+    assert meta_one["leg_length_m"] == 0.9 and meta_two["leg_length_m"] is None
     assert "tracked forwards (one pass)" in one.stdout and "tracked forwards and backwards" in two.stdout
     bad = walker_gait("process", str(real_bag), "--out", str(tmp_path / "bad"), "--passes", "backward")
     assert bad.returncode == 2 and "--passes" in bad.stderr
     # the reported poses' bridge and low-pass take a number >= 0; anything else is refused, naming it
-    for flag, name in (("--bridge-hidden-s", "bridge_hidden_s"), ("--report-lowpass-hz", "report_lowpass_hz")):
-        bad = walker_gait("process", str(real_bag), "--out", str(tmp_path / "bad"), flag, "-1")
-        assert bad.returncode == 2 and name in bad.stderr, bad.stderr
+    for flag, name, value in (("--bridge-hidden-s", "bridge_hidden_s", "-1"),
+                              ("--report-lowpass-hz", "report_lowpass_hz", "-1"), ("--leg-length-m", "leg_length_m", "90")):
+        bad = walker_gait("process", str(real_bag), "--out", str(tmp_path / "bad"), flag, value)
+        assert bad.returncode == 2 and name in bad.stderr and "Traceback" not in bad.stderr, bad.stderr
     off = walker_gait("process", str(real_bag), "--out", str(tmp_path / "off"), "--bridge-hidden-s", "0",
                       "--report-lowpass-hz", "0")
     assert off.returncode == 0, off.stderr
