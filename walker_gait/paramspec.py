@@ -55,7 +55,9 @@ NODE_PARAMS: dict[str, list[tuple[str, Any, str]]] = {
         ("leg_length_m", 0.0, "m; the user's measured leg length (the hip joint centre's standing height above the "
                               "floor: floor to greater trochanter): with the pelvis placed, the published thighs and "
                               "calves have that length, each knee moved along its tracked calf (the camera measures "
-                              "neither; `walker_gait.core.pelvis.with_leg_length`; 0 = not measured: the tracker's)"),
+                              "neither; `walker_gait.core.pelvis.with_leg_length`; 0 = not measured: the tracker's; "
+                              "may be set while the node runs, for the next user: `ros2 param set /leg_tracker "
+                              "leg_length_m 0.91`; the other parameters are read at start)"),
         ("input_depth", 10, "queue depth of the three synchronised inputs: it absorbs bursts in which the tracker "
                             "is slower than the camera; small = track the newest frames (low latency, frames "
                             "skipped in every burst), large = work through the queued frames (none skipped, more "

@@ -701,13 +701,23 @@ def test_stamp_sync_hands_frames_out_in_stamp_order_when_a_lost_part_delays_one(
 
 
 def test_leg_tracker_leg_length_reaches_the_placement_and_is_validated(rclpy_context: None) -> None:
-    """``leg_length_m`` (m; 0 = not measured) goes to the reported pelvis's placement; centimetres are refused."""
+    """``leg_length_m`` (m; 0 = not measured) goes to the reported pelvis's placement, also when set while the node
+    runs; centimetres are refused."""
     from walker_gait.config import ParameterError
     from walker_gait.ros.nodes import LegTrackerNode
 
     node = LegTrackerNode(parameter_overrides=[rclpy.parameter.Parameter("leg_length_m", value=0.88)])
     try:
         assert node.pelvis is not None and node.pelvis.leg_length_m == pytest.approx(0.88)
+        # the next user, while the node runs; centimetres refused with the reason, the value kept
+        assert node.set_parameters([rclpy.parameter.Parameter("leg_length_m", value=0.93)])[0].successful
+        assert node.pelvis.leg_length_m == pytest.approx(0.93)
+        refused = node.set_parameters([rclpy.parameter.Parameter("leg_length_m", value=93.0)])[0]
+        assert not refused.successful and "metres" in refused.reason
+        assert node.pelvis.leg_length_m == pytest.approx(0.93)
+        assert node.get_parameter("leg_length_m").value == pytest.approx(0.93)
+        assert node.set_parameters([rclpy.parameter.Parameter("leg_length_m", value=0.0)])[0].successful
+        assert node.pelvis.leg_length_m is None
     finally:
         node.destroy_node()
     node = LegTrackerNode()

@@ -368,6 +368,28 @@ class LegTrackerNode(WalkerNode):
         self.raw_subscription(M.FLOOR_PLANE, "floor_plane", lambda m: self.on_part("floor", m), qos_in)
         self.latencies: list[float] = []
         self._waiting: deque[dict[str, Any]] = deque()  # complete frames held until the first CameraInfo
+        self.add_on_set_parameters_callback(self._on_set_parameters)
+
+    def _on_set_parameters(self, params: list[Any]) -> Any:
+        """``leg_length_m`` may change while the node runs (the next user at the walker: ``ros2 param set
+        /leg_tracker leg_length_m 0.91``); a value the placement would refuse is refused with its reason."""
+        from rcl_interfaces.msg import SetParametersResult
+
+        from walker_gait.core.pelvis import check_leg_length
+
+        new = [p for p in params if p.name == "leg_length_m"]
+        for p in new:
+            try:
+                check_leg_length(float(p.value) or None)
+            except (TypeError, ValueError) as exc:
+                return SetParametersResult(successful=False, reason=f"leg_tracker.{exc} (0 = not measured)")
+        for p in new:
+            value = float(p.value) or None
+            if self.pelvis is not None:
+                self.pelvis.leg_length_m = value
+            self.get_logger().info(f"leg_length_m set to {value if value else 'not measured'}"
+                                   + ("" if self.pelvis is not None else " (the placement is off: pelvis_window_s 0)"))
+        return SetParametersResult(successful=True)
 
     def on_info(self, msg: Any) -> None:
         from walker_gait.core.depth import intrinsics_from_camera_info
