@@ -312,3 +312,14 @@ def test_the_placed_pelvis_faces_the_feet() -> None:
     left = np.stack([p.angles for p in placed])[:, rotation] - np.stack([p.angles for p in straight])[:, rotation]
     assert np.abs(twist).mean() > np.radians(5)
     assert np.abs(left).max() < np.radians(1)
+
+
+def test_the_placement_is_the_same_in_the_body_frame_for_either_mounting() -> None:
+    """A camera facing forward (the user's left on the image's left) places the same body-frame pelvis, hips and knees
+    as one facing the user: the mounting only says how the body frame lies in the walker frame."""
+    poses, _ = _walk(n=40, lean_deg=-4.0)
+    facing_user = np.stack([p.points for p in pv.place_poses(poses, mounting="facing_user", leg_length_m=0.9)]) @ FLIP
+    forward = [pv.with_points(p, np.asarray(p.points) @ FLIP) for p in poses]  # the same bodies, walker = body
+    facing_forward = np.stack([p.points for p in pv.place_poses(forward, mounting="facing_forward", leg_length_m=0.9)])
+    np.testing.assert_allclose(facing_forward, facing_user, atol=1e-9)
+    assert np.abs(facing_user[:, :, HIP] - np.stack([p.points for p in poses])[:, :, HIP] @ FLIP).max() > 0.02
