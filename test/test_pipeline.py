@@ -7,6 +7,8 @@ a second process; results, warnings and errors must be exactly those of the inli
 from __future__ import annotations
 
 import dataclasses
+import gc
+import os
 import warnings
 from pathlib import Path
 from typing import Any
@@ -537,3 +539,35 @@ def test_learning_no_structure_changes_nothing() -> None:
     assert learned == 0
     np.testing.assert_array_equal(offline.points, live.points)
     np.testing.assert_array_equal(offline.depth_fg, live.depth_fg)
+
+
+class _Finalised:
+    """A reference cycle whose finaliser writes the id of the process that ran it."""
+
+    def __init__(self, log: Path) -> None:
+        self.log = log
+        self.me = self
+
+    def __del__(self) -> None:
+        with open(self.log, "a") as fh:
+            fh.write(f"{os.getpid()}\n")
+
+
+def _collect_in_child() -> None:
+    gc.collect()
+
+
+def test_a_forked_worker_leaves_the_parents_garbage_to_the_parent(tmp_path: Path) -> None:
+    """The parent's leftover reference cycles (an rclpy node's, in a program or test that made nodes) are finalised
+    in the parent before a fork, never in the forked worker, which crashed collecting them."""
+    from walker_gait.pipeline import _in_background
+
+    log = tmp_path / "finalised.txt"
+    _Finalised(log)  # unreachable at once: cyclic garbage only the collector frees
+    gc.disable()  # no automatic collection may free it before the fork
+    try:
+        _in_background(_collect_in_child)()
+    finally:
+        gc.enable()
+    gc.collect()
+    assert log.read_text().split() == [str(os.getpid())]

@@ -8,7 +8,9 @@ a given seed.
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
+import gc
 import json
 import math
 import sys
@@ -714,6 +716,20 @@ def _can_fork() -> bool:
     return "fork" in mp.get_all_start_methods() and not mp.current_process().daemon
 
 
+@contextlib.contextmanager
+def _fork_safely() -> Iterator[None]:
+    """Around a fork: this process's garbage collected here, the rest kept out of the child's collector.  A child
+    that collected the parent's leftover reference cycles ran their finalisers against state it does not own: an
+    rclpy node's (a program or a test that made nodes before processing a recording) crashed the forked report
+    writer with a segmentation fault in its garbage collection."""
+    gc.collect()
+    gc.freeze()
+    try:
+        yield
+    finally:
+        gc.unfreeze()
+
+
 def _floor_up_hint(configured: Any, floors: list[FloorPlane]) -> tuple[tuple[float, float, float], bool]:
     """The up direction around which the recording's floor was found (``floor.up_hint``, or the half-turned one of
     ``floor.auto_flip``: a camera mounted upside down) and whether it is the half-turned one.  The segmenter may
@@ -776,7 +792,8 @@ class _Front:
             self._worker = ctx.Process(target=_front_worker,
                                        args=(self._q, self.recording, self.proc, self._store_path),
                                        name="walker-gait-prepare", daemon=True)
-            self._worker.start()
+            with _fork_safely():
+                self._worker.start()
         return self
 
     def __exit__(self, *exc: object) -> None:
@@ -904,7 +921,8 @@ def _in_background(fn: Any, *args: Any, **kwargs: Any) -> Any:
         fn(*args, **kwargs)
         return lambda: None
     pool = ProcessPoolExecutor(max_workers=1, mp_context=mp.get_context("fork"))
-    future = pool.submit(fn, *args, **kwargs)
+    with _fork_safely():  # submit forks the worker
+        future = pool.submit(fn, *args, **kwargs)
 
     def wait() -> None:
         try:
