@@ -133,6 +133,8 @@ METADATA = {
     "frames_processed": 300,
     "frames_skipped": {"depth_decode_error": 2, "no_camera_info": 1},
     "processing_time_s": 12.5,
+    "report_pelvis_window_s": 1.0,
+    "leg_length_m": None,
 }
 
 
@@ -206,7 +208,7 @@ def test_full_report_is_valid_self_contained_html(tmp_path: Path, session) -> No
     # clinical names, units, escaped metadata
     for needle in ("Cadence", "steps/min", "Gait speed", "m/s", "Step length, mean", "cm", "% gait cycle",
                    "Step length symmetry", "Left", "Right", "patient_&lt;07&gt;.mcap", "depth_decode_error: 2",
-                   "Frames skipped"):
+                   "Frames skipped", "Leg length given (m)</th><td>—", "window (s; 0 = as tracked)</th><td>1.0"):
         assert needle in text, needle
     assert "patient_<07>" not in text
     assert "100.0" in text  # cadence

@@ -658,6 +658,8 @@ _META_LABELS: tuple[tuple[str, str], ...] = (
     ("frames_processed", "Frames processed"),
     ("frames_from_backward_pass", "Frames from the backward pass"),
     ("steps_unconfirmed", "Steps the two passes did not confirm"),
+    ("report_pelvis_window_s", "Hips placed over the feet, window (s; 0 = as tracked)"),
+    ("leg_length_m", "Leg length given (m)"),
     ("frames_skipped_total", "Frames skipped"),
     ("processing_time_s", "Processing time (s)"),
     ("walker_gait_version", "walker_gait version"),
