@@ -76,7 +76,7 @@ class PipelineOptions:
 
     def __post_init__(self) -> None:
         from walker_gait.core.gait import GaitConfig
-        from walker_gait.core.pelvis import LEG_LENGTH_RANGE_M
+        from walker_gait.core.pelvis import check_leg_length
         from walker_gait.core.segmentation import SegmenterConfig
         from walker_gait.core.smoothing import PASSES
         from walker_gait.core.tracker import preset as tracker_preset
@@ -87,12 +87,10 @@ class PipelineOptions:
             value = getattr(self, name)
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0):
                 raise ParameterError(f"{name} must be a finite number >= 0 (0 = off), got {value!r}")
-        leg = self.leg_length_m
-        if not (isinstance(leg, (int, float)) and math.isfinite(leg)) or leg != 0 and not (
-                LEG_LENGTH_RANGE_M[0] <= leg <= LEG_LENGTH_RANGE_M[1]):
-            raise ParameterError(f"leg_length_m must be 0 (not measured) or the standing height of the hip joint "
-                                 f"above the floor in metres, within {LEG_LENGTH_RANGE_M[0]}-{LEG_LENGTH_RANGE_M[1]}, "
-                                 f"got {leg!r}")
+        try:
+            check_leg_length(self.leg_length_m)
+        except ValueError as exc:
+            raise ParameterError(str(exc)) from None
 
         if self.segmenter is None:
             self.segmenter = SegmenterConfig()
@@ -348,7 +346,7 @@ class FrameProcessor:
             from walker_gait.core.pelvis import LivePelvis
 
             self._pelvis = LivePelvis(mounting=options.mounting, window_s=options.report_pelvis_window_s,
-                                      leg_length_m=options.leg_length_m or None)
+                                      leg_length_m=options.leg_length_m)
 
     def set_camera_info(self, info: Any) -> None:
         """Apply a CameraInfo (``CameraInfoData`` or any object with width/height/k/d/p/distortion_model)."""
@@ -557,7 +555,7 @@ class FrameProcessor:
             shown = reported_poses(merged.poses, hide_below=self.options.tracker.hide_below,
                                    max_gap_s=self.options.bridge_hidden_s, lowpass_hz=self.options.report_lowpass_hz,
                                    floors=floors, pelvis_window_s=self.options.report_pelvis_window_s,
-                                   mounting=self.options.mounting, leg_length_m=self.options.leg_length_m or None)
+                                   mounting=self.options.mounting, leg_length_m=self.options.leg_length_m)
             # each pass analysed alone (the forward one as it was tracked): the merged track's steps are checked
             # against theirs (check_against_passes)
             assert self._fwd_alone is not None

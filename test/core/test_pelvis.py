@@ -280,7 +280,8 @@ def test_a_measured_leg_length_puts_the_hips_at_their_height() -> None:
 def test_a_leg_length_must_be_in_metres_within_an_adults_range() -> None:
     assert pv.check_leg_length(None) is None
     assert pv.check_leg_length(0.9) == 0.9
-    for bad in (88.0, 1.75, 0.2, float("nan")):
+    assert pv.check_leg_length(0.0) is None  # the parameters' "not measured"
+    for bad in (88.0, 1.75, 0.2, float("nan"), "0.9", True):
         with pytest.raises(ValueError, match="leg_length_m .* metres"):
             pv.check_leg_length(bad)
     poses, _ = _walk(n=5)

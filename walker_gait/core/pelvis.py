@@ -219,16 +219,19 @@ is a mistake (centimetres, a stature) rather than a user."""
 
 
 def check_leg_length(leg_length_m: float | None) -> float | None:
-    """``leg_length_m`` as a float (``None``: not measured), or a ``ValueError`` naming the accepted range."""
+    """``leg_length_m`` as a float, ``None`` when not measured (``None`` or 0, the parameters' "not measured"), or
+    a ``ValueError`` naming the accepted range (a string, NaN or a value outside :data:`LEG_LENGTH_RANGE_M`)."""
     if leg_length_m is None:
         return None
     lo, hi = LEG_LENGTH_RANGE_M
-    value = float(leg_length_m)
-    if not lo <= value <= hi:
+    number = isinstance(leg_length_m, (int, float, np.floating)) and not isinstance(leg_length_m, bool)
+    if number and leg_length_m == 0:
+        return None
+    if not (number and lo <= leg_length_m <= hi):
         msg = (f"leg_length_m must be the standing height of the hip joint above the floor in metres, within "
-               f"{lo}-{hi}, got {leg_length_m!r}")
+               f"{lo}-{hi}, got {leg_length_m!r} (0 = not measured)")
         raise ValueError(msg)
-    return value
+    return float(leg_length_m)
 
 
 def with_leg_length(states: FloatArray, held: FloatArray, leg_length_m: float) -> tuple[FloatArray, FloatArray]:

@@ -348,11 +348,10 @@ class LegTrackerNode(WalkerNode):
         from walker_gait.core.pelvis import LivePelvis, check_leg_length
 
         try:
-            check_leg_length(leg if leg != 0 else None)
+            check_leg_length(leg)
         except ValueError as exc:
-            raise ParameterError(f"leg_tracker.{exc} (0 = not measured)") from None
-        self.pelvis = (LivePelvis(mounting=self.mounting, window_s=window, leg_length_m=leg or None)
-                       if window > 0 else None)
+            raise ParameterError(f"leg_tracker.{exc}") from None
+        self.pelvis = LivePelvis(mounting=self.mounting, window_s=window, leg_length_m=leg) if window > 0 else None
         self.tracker: Any = None
         self.intrinsics: Any = None
         self.sync = StampSync(("points", "mask", "floor"), stand_in=("floor",))
@@ -377,14 +376,11 @@ class LegTrackerNode(WalkerNode):
 
         from walker_gait.core.pelvis import check_leg_length
 
-        new = [p for p in params if p.name == "leg_length_m"]
-        for p in new:
-            try:
-                check_leg_length(float(p.value) or None)
-            except (TypeError, ValueError) as exc:
-                return SetParametersResult(successful=False, reason=f"leg_tracker.{exc} (0 = not measured)")
-        for p in new:
-            value = float(p.value) or None
+        try:
+            new = [check_leg_length(p.value) for p in params if p.name == "leg_length_m"]
+        except ValueError as exc:
+            return SetParametersResult(successful=False, reason=f"leg_tracker.{exc}")
+        for value in new:
             if self.pelvis is not None:
                 self.pelvis.leg_length_m = value
             self.get_logger().info(f"leg_length_m set to {value if value else 'not measured'}"
