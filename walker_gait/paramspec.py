@@ -50,8 +50,9 @@ NODE_PARAMS: dict[str, list[tuple[str, Any, str]]] = {
         ("pelvis_window_s", 1.0, "s; the published hips and knees, which the camera does not see, with the pelvis "
                                  "over the ankles (their midpoint fitted over the last this long, a few cm ahead of "
                                  "it: more walking than standing; facing the feet's heading) and the joint angles "
-                                 "solved again so that the tracked knees, ankles, heels and toes stay "
-                                 "(`walker_gait.core.pelvis`; 0 = as tracked)"),
+                                 "solved again so that the tracked knees, ankles, heels and toes stay, the thighs "
+                                 "and calves of the track's median lengths so far, each knee moved along its "
+                                 "tracked calf to it (`walker_gait.core.pelvis`; 0 = as tracked)"),
         ("leg_length_m", 0.0, "m; the user's measured leg length (the hip joint centre's standing height above the "
                               "floor: floor to greater trochanter): with the pelvis placed, the published thighs and "
                               "calves have that length, each knee moved along its tracked calf (the camera measures "

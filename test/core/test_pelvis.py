@@ -15,13 +15,17 @@ from walker_gait.core.types import ANKLE, HEEL, HIP, KNEE, TOE, FloorPlane, LegP
 FLIP = np.diag([-1.0, -1.0, 1.0])  # body frame -> walker frame for a camera facing the user
 
 
-def _state(angles_deg: list[float], *, root_xy: tuple[float, float] = (0.0, -0.09)) -> np.ndarray:
+def _state(angles_deg: list[float], *, root_xy: tuple[float, float] = (0.0, -0.09),
+           thigh: float | None = None) -> np.ndarray:
     x = lm.neutral_state(right_hip_xy=root_xy)
     x[L.ANGLES] = np.radians(angles_deg)
+    if thigh is not None:
+        x[L.LEN_THIGH] = thigh
     return lm.enforce_constraints(x[None])[0][0]
 
 
-def _walk(n: int = 90, fps: float = 30.0, *, lean_deg: float = 0.0) -> tuple[list[LegPose], np.ndarray]:
+def _walk(n: int = 90, fps: float = 30.0, *, lean_deg: float = 0.0,
+          thigh: float | None = None) -> tuple[list[LegPose], np.ndarray]:
     """A walking-like sequence in the walker frame: the legs swing in antiphase at 1 Hz under a still pelvis, the
     thighs leaning ``lean_deg`` back from where they would bring the pelvis over the feet (the tracked pelvis's
     error: a pelvis ahead of the feet); returns the poses and each frame's state."""
@@ -29,12 +33,19 @@ def _walk(n: int = 90, fps: float = 30.0, *, lean_deg: float = 0.0) -> tuple[lis
     for i in range(n):
         s = np.sin(2 * np.pi * i / fps)
         ang = [20 * s - lean_deg, 2, 0, 30 + 15 * s, 5 * s, 0, -20 * s - lean_deg, 2, 0, 30 - 15 * s, -5 * s, 0]
-        x = _state(ang)
+        x = _state(ang, thigh=thigh)
         pts = lm.forward_kinematics(x).points[0]
         states.append(x)
         segs = np.zeros((2, 3, 2, 3))
         poses.append(LegPose(stamp=i / fps, points=pts @ FLIP, angles=lm.joint_angles(x), segments=segs))
     return poses, np.stack(states)
+
+
+def _assert_same_feet(after: np.ndarray, before: np.ndarray) -> None:
+    """The ankles and toes of ``after`` are those of ``before`` bit for bit, the heels to rounding (their feet are of
+    one length already, so moving the heels to the track's foot length leaves them)."""
+    np.testing.assert_array_equal(after[..., [ANKLE, TOE], :], before[..., [ANKLE, TOE], :])
+    np.testing.assert_allclose(after[..., HEEL, :], before[..., HEEL, :], atol=1e-12)
 
 
 def _ahead(points: np.ndarray) -> float:
@@ -100,8 +111,8 @@ def test_place_poses_puts_the_pelvis_over_the_feet_and_leaves_the_feet_alone() -
     placed = pv.place_poses(poses)
     before = np.stack([p.points for p in poses]) @ FLIP
     after = np.stack([p.points for p in placed]) @ FLIP
-    # the feet are the tracked ones, bit for bit
-    np.testing.assert_array_equal(after[:, :, ANKLE : TOE + 1], before[:, :, ANKLE : TOE + 1])
+    # the feet are the tracked ones (a model walk: its feet are of the track's one length already)
+    _assert_same_feet(after, before)
     # the pelvis stood 15 cm ahead of the ankles; placed, it leads their midpoint averaged over a stride by a walking
     # user's lean (the feet swing: sd of their separation 0.25 m)
     ahead_before = np.array([_ahead(p) for p in before])
@@ -256,7 +267,7 @@ def test_a_measured_leg_length_puts_the_hips_at_their_height() -> None:
     placed = pv.place_poses(tracked, leg_length_m=leg)
     assert hips_off(placed) < 0.015
     after = np.stack([p.points for p in placed]) @ FLIP
-    np.testing.assert_array_equal(after[:, :, ANKLE:], np.stack([p.points for p in tracked])[:, :, ANKLE:] @ FLIP)
+    _assert_same_feet(after, np.stack([p.points for p in tracked]) @ FLIP)
     # the model's lengths: Winter's shares of the leg less the ankle height; the knee near the tracked calf's line
     legs = leg - lm.ANKLE_HEIGHT * foot
     np.testing.assert_allclose(np.linalg.norm(after[:, :, HIP] - after[:, :, KNEE], axis=-1), pv.THIGH_SHARE * legs,
@@ -307,7 +318,7 @@ def test_the_placed_pelvis_faces_the_feet() -> None:
     got = np.stack([p.points for p in placed]) @ FLIP
     d = got[:, 0, HIP] - got[:, 1, HIP]
     assert np.abs(np.degrees(np.arctan2(-d[:, 0], d[:, 1]))).max() < 1.0
-    np.testing.assert_array_equal(got[:, :, ANKLE:], np.stack([p.points for p in turned])[:, :, ANKLE:] @ FLIP)
+    _assert_same_feet(got, np.stack([p.points for p in turned]) @ FLIP)
     rotation = [2, 8]  # JOINT_NAMES: left / right hip rotation
     twist = np.stack([p.angles for p in turned])[:, rotation] - np.stack([p.angles for p in straight])[:, rotation]
     left = np.stack([p.angles for p in placed])[:, rotation] - np.stack([p.angles for p in straight])[:, rotation]
@@ -324,3 +335,75 @@ def test_the_placement_is_the_same_in_the_body_frame_for_either_mounting() -> No
     facing_forward = np.stack([p.points for p in pv.place_poses(forward, mounting="facing_forward", leg_length_m=0.9)])
     np.testing.assert_allclose(facing_forward, facing_user, atol=1e-9)
     assert np.abs(facing_user[:, :, HIP] - np.stack([p.points for p in poses])[:, :, HIP] @ FLIP).max() > 0.02
+
+
+def _wandering(poses: list[LegPose], rng: np.random.Generator, *, foot_sd: float, calf_sd: float) -> list[LegPose]:
+    """``poses`` (walker frame) as a tracker reports them: each frame's heels moved along their feet (the shoe's
+    length wanders by ``foot_sd``) and knees along their calves (``calf_sd``), the toes, ankles and hips where they
+    were; the left leg's change is the right one's negated, so the track's median lengths are the true ones."""
+    out = []
+    for p in poses:
+        pts = np.asarray(p.points, dtype=np.float64) @ FLIP
+        sign = np.array([[1.0], [-1.0]])
+        foot = pts[:, HEEL] - pts[:, TOE]
+        pts[:, HEEL] += foot / np.linalg.norm(foot, axis=-1, keepdims=True) * sign * foot_sd * rng.standard_normal()
+        calf = pts[:, KNEE] - pts[:, ANKLE]
+        pts[:, KNEE] += calf / np.linalg.norm(calf, axis=-1, keepdims=True) * sign * calf_sd * rng.standard_normal()
+        out.append(pv.with_points(p, pts @ FLIP))
+    return out
+
+
+def _lengths(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Calf (knee to ankle) and foot (heel to toe) lengths of ``points`` ``(F, 2, 5, 3)``."""
+    return (np.linalg.norm(points[:, :, KNEE] - points[:, :, ANKLE], axis=-1),
+            np.linalg.norm(points[:, :, TOE] - points[:, :, HEEL], axis=-1))
+
+
+def test_a_track_is_reported_with_one_length_of_each_segment() -> None:
+    """The tracker's lengths wander from frame to frame (they are part of its state), a user's do not: placed, a track
+    whose calves and shoes wander about the true lengths is reported as the same walk tracked without the wander:
+    every heel at the track's median foot length along its tracked foot from the seen toe, the knees and hips within
+    a few mm; the toes and ankles stay bit for bit.  A frame without a user ends a track: the next one (another user,
+    feet 3 cm longer) gets its own lengths.  Live, the heels stay the tracker's (the live gait analyzer reads them)
+    and the knees and hips those of the walk without the wander."""
+    rng = np.random.default_rng(3)
+    poses, _ = _walk(n=90, thigh=0.47)  # a thigh 5 cm longer than the calf
+    longer = []  # the second user's feet: 3 cm longer (heels further back)
+    for p in poses[46:]:
+        pts = np.asarray(p.points, dtype=np.float64) @ FLIP
+        foot = pts[:, HEEL] - pts[:, TOE]
+        pts[:, HEEL] += 0.03 * foot / np.linalg.norm(foot, axis=-1, keepdims=True)
+        longer.append(pv.with_points(p, pts @ FLIP))
+    clean = poses[:45] + [LegPose.no_user(poses[45].stamp)] + longer
+    tracked = _wandering(clean[:45], rng, foot_sd=0.02, calf_sd=0.03) + [clean[45]] \
+        + _wandering(clean[46:], rng, foot_sd=0.02, calf_sd=0.03)
+    before = np.stack([p.points for p in tracked]) @ FLIP
+    placed = pv.place_poses(tracked)
+    assert placed[45] is tracked[45]
+    after = np.stack([p.points for p in placed]) @ FLIP
+    want = np.stack([p.points for p in pv.place_poses(clean)]) @ FLIP
+    for track in (slice(0, 45), slice(46, 90)):
+        b, a, w = before[track], after[track], want[track]
+        np.testing.assert_array_equal(a[:, :, [ANKLE, TOE]], b[:, :, [ANKLE, TOE]])
+        calf_b, foot_b = _lengths(b)
+        assert foot_b.std() > 0.015 and calf_b.std() > 0.02  # as tracked: wandering
+        np.testing.assert_allclose(a[:, :, HEEL], w[:, :, HEEL], atol=1e-9)  # the median is the true length
+        assert np.abs(a[:, :, [HIP, KNEE]] - w[:, :, [HIP, KNEE]]).max() < 0.005
+        assert np.abs(b[:, :, KNEE] - w[:, :, KNEE]).max() > 0.04
+    assert np.median(_lengths(after[46:])[1]) - np.median(_lengths(after[:45])[1]) > 0.025
+    np.testing.assert_allclose(pv.segment_lengths(before[:45])[1:], [np.median(_lengths(before[:45])[k]) for k in (0, 1)])
+    assert np.all(np.isnan(pv.segment_lengths(np.full((3, 2, 5, 3), np.nan))))
+    # live: the heels as tracked; the knees and hips those of the clean walk's live placement
+    floor = _floor()
+    rot, t = floor.walker_transform()
+
+    def live(seq: list[LegPose]) -> np.ndarray:
+        lp = pv.LivePelvis()
+        out = [lp.place(pv.moved_pose(p, rot.T, -(rot.T @ t)), floor) for p in seq]
+        return np.stack([floor.to_walker(p.points) for p in out]) @ FLIP
+
+    got, live_want = live(tracked), live(clean)
+    np.testing.assert_allclose(got[:, :, HEEL], before[:, :, HEEL], atol=1e-9)
+    ok = np.ones(90, dtype=bool)
+    ok[45] = False
+    assert np.abs(got[ok][:, :, [HIP, KNEE]] - live_want[ok][:, :, [HIP, KNEE]]).max() < 0.005

@@ -15,10 +15,17 @@ back and forth in that window) and turned to the feet's heading over that window
 unobserved as its place: 5-10 deg RMS off on the synthetic sessions, where the true one keeps within 2-3 deg of the
 feet's heading), the root height and the legs' joint angles but the ankle inversions are solved again
 (damped Gauss-Newton) so that each leg's knee, ankle, heel and toe stay where they were tracked, and the hips and the
-knees are reported from that solution, the ankles, heels and toes as tracked.  The thighs follow the pelvis; the
-feet, the steps and the events are unchanged.  The angles are solved for the reported points themselves (which the
+knees are reported from that solution, the ankles and toes as tracked (the heels below).  The thighs follow the
+pelvis; the steps and the events are unchanged.  The angles are solved for the reported points themselves (which the
 tracker reports as a weighted mean over its particles, with the toe measured from the data and flat feet levelled),
 so they describe the pose the points show.
+
+A user's thighs, calves and shoes keep their lengths, but the tracker's lengths are part of its state and wander
+with it from frame to frame (sd 2.4 cm for the shoe within a session, where its error from one session to the next
+is 1.2-1.6 cm): the placement reports each track with one length of each, the median over the track so far
+(:func:`segment_lengths`), each knee moved along its tracked calf to the calf's length and, offline, each heel along
+its tracked foot (from the seen toe) to the shoe's length.  Live the heels stay the tracker's, which the live gait
+analyzer reads, so that its steps stay those of ``walker-gait process --passes forward``.
 
 The hips' height is the leg lengths', which nothing in view measures either: given the user's measured leg length
 (``leg_length_m``, the hip joint centre's standing height above the floor, as gait labs record it), the thighs and
@@ -61,8 +68,10 @@ __all__ = [
     "place_pelvis",
     "place_poses",
     "pose_state",
+    "segment_lengths",
     "support_sample",
     "with_leg_length",
+    "with_lengths",
     "with_points",
 ]
 
@@ -85,6 +94,10 @@ WALK_SWING_M = 0.20
 """Standard deviation (m) over the window of the ankles' fore-aft separation at and above which the user counts as
 walking (:func:`lean`): walking, the separation swings by about plus or minus a step length (sd 0.2-0.47 m in the
 synthetic sessions, median per scenario), standing it stays within noise."""
+
+LIVE_LENGTHS_FRAMES = 1800
+"""The live placement's segment lengths are the medians over at most this many of the track's last frames (a minute at
+30 Hz): a user's lengths do not change, the bound keeps the cost of a frame bounded."""
 
 _HELD = [KNEE, ANKLE, HEEL, TOE]
 """The points of each leg a placed pelvis leaves where they were tracked."""
@@ -234,24 +247,64 @@ def check_leg_length(leg_length_m: float | None) -> float | None:
     return float(leg_length_m)
 
 
+def segment_lengths(points: FloatArray) -> FloatArray:
+    """``(3,)``: the median thigh (hip to knee), calf (knee to ankle) and foot (heel to toe) length over the frames of
+    ``points`` ``(F, 2, 5, 3)`` whose points are all finite, both legs pooled (the model's legs share their lengths);
+    NaN where there is no such frame."""
+    p = np.asarray(points, dtype=np.float64).reshape(-1, 2, 5, 3)
+    p = p[np.all(np.isfinite(p), axis=(1, 2, 3))]
+    if not len(p):
+        return np.full(3, np.nan)
+    return np.array([np.median(np.linalg.norm(p[:, :, a] - p[:, :, b], axis=-1))
+                     for a, b in ((HIP, KNEE), (KNEE, ANKLE), (TOE, HEEL))])
+
+
+def with_lengths(states: FloatArray, held: FloatArray, *, thigh: float | FloatArray, calf: float | FloatArray,
+                 foot: float | FloatArray | None = None) -> tuple[FloatArray, FloatArray]:
+    """``states`` ``(F, 23)`` with these thigh and calf lengths (m) and ``held`` ``(F, 2, 4, 3)``
+    (:func:`held_points`) with each knee moved along its tracked calf (the lower calf is in view, the knee is not) to
+    the calf length; with a ``foot`` length also the states' feet of that length and each heel moved along its
+    tracked foot from the toe (seen from the front the toe is in view, the heel behind the shoe is not)."""
+    x = np.array(states, dtype=np.float64, copy=True)
+    h = np.array(held, dtype=np.float64, copy=True)
+    x[:, L.LEN_THIGH] = thigh
+    x[:, L.LEN_CALF] = calf
+    if foot is not None:
+        x[:, L.LEN_FOOT] = foot
+    x = lm.clip_to_limits(x)
+    h[:, :, 0] = _along(h[:, :, 1], h[:, :, 0], x[:, L.LEN_CALF], _UP)
+    if foot is not None:
+        h[:, :, 2] = _along(h[:, :, 3], h[:, :, 2], x[:, L.LEN_FOOT], _BACK)
+    return x, h
+
+
+_UP = np.array([0.0, 0.0, 1.0])
+_BACK = np.array([-1.0, 0.0, 0.0])
+
+
+def _along(start: FloatArray, end: FloatArray, length: FloatArray, fallback: FloatArray) -> FloatArray:
+    """``(F, 2, 3)``: the point ``length`` ``(F,)`` from ``start`` towards ``end`` (towards ``fallback`` where they
+    coincide)."""
+    d = end - start
+    norm = np.linalg.norm(d, axis=-1, keepdims=True)
+    u = np.where(norm > 1e-9, d / np.maximum(norm, 1e-9), fallback)
+    return start + length[:, None, None] * u
+
+
 def with_leg_length(states: FloatArray, held: FloatArray, leg_length_m: float) -> tuple[FloatArray, FloatArray]:
     """``states`` ``(F, 23)`` with the thigh and calf lengths of a measured leg length (the hip joint centre's height
     above the floor standing: the thigh and the calf share it less the model's ankle height as :data:`THIGH_SHARE`
-    says) and ``held`` ``(F, 2, 4, 3)`` (:func:`held_points`) with each knee moved along its tracked calf (the lower
-    calf is in view, the knee is not) to the new calf length.  The camera sees neither the thigh nor the knee, so the
-    tracker's leg lengths are the model's guess (per session 5 cm off in height at the hips, sd); a clinic measures
-    the leg length anyway (GAITRite and gait labs normalise by it)."""
+    says) and ``held`` ``(F, 2, 4, 3)`` (:func:`held_points`) with each knee moved along its tracked calf to the new
+    calf length (:func:`with_lengths`).  The camera sees neither the thigh nor the knee, so the tracker's leg lengths
+    are the model's guess (per session 5 cm off in height at the hips, sd); a clinic measures the leg length anyway
+    (GAITRite and gait labs normalise by it)."""
     x = np.array(states, dtype=np.float64, copy=True)
-    h = np.array(held, dtype=np.float64, copy=True)
     legs = leg_length_m - lm.ANKLE_HEIGHT * x[:, L.LEN_FOOT]
     x[:, L.LEN_THIGH] = THIGH_SHARE * legs
     x[:, L.LEN_CALF] = (1.0 - THIGH_SHARE) * legs
     x = lm.clip_to_limits(x)
-    calf = h[:, :, 0] - h[:, :, 1]  # knee - ankle
-    norm = np.linalg.norm(calf, axis=-1, keepdims=True)
-    up = np.array([0.0, 0.0, 1.0])
-    u = np.where(norm > 1e-9, calf / np.maximum(norm, 1e-9), up)
-    h[:, :, 0] = h[:, :, 1] + x[:, L.LEN_CALF][:, None, None] * u
+    h = np.array(held, dtype=np.float64, copy=True)
+    h[:, :, 0] = _along(h[:, :, 1], h[:, :, 0], x[:, L.LEN_CALF], _UP)
     return x, h
 
 
@@ -264,8 +317,10 @@ def place_poses(poses: Sequence[LegPose], *, mounting: str = "facing_user",
                 window_s: float = PLACE_WINDOW_S, leg_length_m: float | None = None) -> list[LegPose]:
     """The poses (floor-aligned frame, see the module docstring) with each tracked frame's pelvis placed where the
     ankles in a centred window of ``window_s`` put it (:func:`pelvis_target`) and its hips, knees and joint angles
-    re-solved with the knees, ankles, heels and toes held (:func:`place_pelvis`); with a measured ``leg_length_m``
-    the thighs and calves of that length, each knee moved along its tracked calf (:func:`with_leg_length`).  Frames
+    re-solved with the knees, ankles, heels and toes held (:func:`place_pelvis`), the thighs, calves and feet of the
+    track's median lengths (:func:`segment_lengths`; a track ends at a frame that is ``NO_USER`` or ``SEARCHING``),
+    each knee moved along its tracked calf and each heel along its tracked foot to them (:func:`with_lengths`);
+    with a measured ``leg_length_m`` the thighs and calves of that length (:func:`with_leg_length`).  Frames
     that are neither ``TRACKING`` nor ``DEGRADED`` or lack points or angles are returned as given; a pose the tracker held
     (the same points and angles as the frame before) is held as placed."""
     if not window_s > 0:
@@ -289,7 +344,13 @@ def place_poses(poses: Sequence[LegPose], *, mounting: str = "facing_user",
             targets.append(pelvis_target(samples[near]))
     if not rows:
         return out
-    new, placed = _solve(body[rows], np.stack([out[idx[k]].angles for k in rows]), np.stack(targets), leg_length_m)
+    # one length of each segment per track: a frame without one (the user gone, a search) ends it
+    track = np.cumsum([p.status in (TrackStatus.NO_USER, TrackStatus.SEARCHING) for p in out])[idx]
+    lengths = np.full((len(idx), 3), np.nan)
+    for t in np.unique(track):
+        lengths[track == t] = segment_lengths(body[track == t])
+    new, placed = _solve(body[rows], np.stack([out[idx[k]].angles for k in rows]), np.stack(targets), leg_length_m,
+                         lengths[rows])
     for j, k in enumerate(rows):
         i = idx[k]
         before = poses[i - 1] if i > 0 else None
@@ -307,9 +368,10 @@ class LivePelvis:
     """:func:`place_poses` frame by frame, for the live graph: the ankles' midpoint over the last ``window_s`` (a
     straight line fitted to it against time, read at the newest frame, so a user who walks in or drifts towards the
     walker is not left behind by half a window) with the lean of the feet's swing and their heading in that window
-    (:func:`pelvis_target`), the same re-solve.  A frame without a track, a floor or time
-    that runs backwards starts the history afresh; a pose the tracker held (the same points and angles as the last
-    one placed: a blanked view) is held as placed.  ``leg_length_m`` as :func:`place_poses`'s."""
+    (:func:`pelvis_target`), the same re-solve with the thighs and calves of the median lengths over the track's
+    frames so far (at most :data:`LIVE_LENGTHS_FRAMES`; the heels stay the tracker's).  A frame without a track, a
+    floor or time that runs backwards starts the history afresh; a pose the tracker held (the same points and angles
+    as the last one placed: a blanked view) is held as placed.  ``leg_length_m`` as :func:`place_poses`'s."""
 
     def __init__(self, *, mounting: str = "facing_user", window_s: float = PLACE_WINDOW_S,
                  leg_length_m: float | None = None) -> None:
@@ -319,10 +381,13 @@ class LivePelvis:
         self.leg_length_m = check_leg_length(leg_length_m)
         self.window_s = float(window_s)
         self._history: deque[tuple[float, FloatArray]] = deque()
+        self._lengths = np.zeros((LIVE_LENGTHS_FRAMES, 2, 2))  # a ring of the frames' (thigh, calf) per leg
+        self._n_lengths = 0  # frames in it, this track
         self._last: tuple[LegPose, LegPose] | None = None  # the last pose placed, as given and as placed
 
     def reset(self) -> None:
         self._history.clear()
+        self._n_lengths = 0
         self._last = None
 
     def place(self, pose: LegPose, floor: FloorPlane) -> LegPose:
@@ -334,8 +399,7 @@ class LivePelvis:
                 self.reset()
             return pose
         if self._history and pose.stamp <= self._history[-1][0]:
-            self._history.clear()
-            self._last = None
+            self.reset()
         if self._last is not None and np.array_equal(self._last[0].points, pose.points) \
                 and np.array_equal(self._last[0].angles, pose.angles):
             # the tracker held its last pose (a blanked view): so is the placed one
@@ -355,9 +419,14 @@ class LivePelvis:
         if stamps[0] < -0.5 * self.window_s:  # enough of a window for a slope
             coef = np.polyfit(stamps, samples[:, :2], 1)  # (2, 2): slope, value at the newest frame
             target[:2] += coef[1] - samples[:, :2].mean(axis=0)
-        new, placed = _solve((np.asarray(walker.points, dtype=np.float64) @ self._flip.T)[None],
-                             np.asarray(pose.angles)[None], target[None], self.leg_length_m)
-        # the new hips and knees back in the camera frame; the feet stay the tracker's, bit for bit
+        body = np.asarray(walker.points, dtype=np.float64) @ self._flip.T
+        self._lengths[self._n_lengths % LIVE_LENGTHS_FRAMES] = np.linalg.norm(
+            body[:, [HIP, KNEE]] - body[:, [KNEE, ANKLE]], axis=-1)
+        self._n_lengths += 1
+        legs = np.median(self._lengths[: min(self._n_lengths, LIVE_LENGTHS_FRAMES)].reshape(-1, 2), axis=0)
+        new, placed = _solve(body[None], np.asarray(pose.angles)[None], target[None], self.leg_length_m,
+                             np.array([[*legs, np.nan]]))
+        # the new hips and knees back in the camera frame; the feet stay the tracker's, bit for bit (the gait analyzer's)
         pts = np.array(pose.points, dtype=np.float64, copy=True)
         pts[:, [HIP, KNEE]] = (placed[0][:, [HIP, KNEE]] @ self._flip - t) @ rot
         out = with_points(pose, pts, angles=lm.joint_angles(new[0]))
@@ -371,18 +440,26 @@ def moved_pose(pose: LegPose, rot: FloatArray, t: FloatArray) -> LegPose:
     return dataclasses.replace(pose, points=np.asarray(pose.points, dtype=np.float64) @ rot.T + t, segments=segs)
 
 
-def _solve(points: FloatArray, angles: FloatArray, target: FloatArray,
-           leg_length_m: float | None) -> tuple[FloatArray, FloatArray]:
+def _solve(points: FloatArray, angles: FloatArray, target: FloatArray, leg_length_m: float | None,
+           lengths: FloatArray) -> tuple[FloatArray, FloatArray]:
     """Poses ``points`` ``(F, 2, 5, 3)`` (body frame) with joint ``angles`` ``(F, 12)`` placed at ``target`` ``(F, 3)``
-    (:func:`pelvis_target`'s x, y, azimuth), the thighs and calves of ``leg_length_m`` if given: the solved states
-    ``(F, 23)`` and the points with the solution's hips and knees, the rest as given."""
+    (:func:`pelvis_target`'s x, y, azimuth) with the thigh, calf and foot ``lengths`` ``(F, 3)`` of their tracks
+    (:func:`segment_lengths`; NaN: as tracked, a NaN foot in any row: every heel as tracked), the thighs and calves of ``leg_length_m`` instead if
+    given: the solved states ``(F, 23)`` and the points with the solution's hips and knees, the heels moved to the
+    foot's length, the rest as given."""
     states = np.stack([pose_state(p, a) for p, a in zip(points, angles)])
     held = np.asarray(points, dtype=np.float64)[:, :, _HELD]
+    lengths = np.asarray(lengths, dtype=np.float64).reshape(len(states), 3)
+    tracked = states[:, [L.LEN_THIGH, L.LEN_CALF]]
+    legs = np.where(np.isfinite(lengths[:, :2]), lengths[:, :2], tracked)
+    foot = lengths[:, 2] if np.all(np.isfinite(lengths[:, 2])) else None
+    states, held = with_lengths(states, held, thigh=legs[:, 0], calf=legs[:, 1], foot=foot)
     if leg_length_m is not None:
         states, held = with_leg_length(states, held, leg_length_m)
     new = place_pelvis(states, held, target[:, :2], yaw=target[:, 2])
     placed = np.array(points, dtype=np.float64, copy=True)
     placed[:, :, [HIP, KNEE]] = lm.forward_kinematics(new).points[:, :, [HIP, KNEE]]
+    placed[:, :, HEEL] = held[:, :, 2]
     return new, placed
 
 
