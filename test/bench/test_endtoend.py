@@ -13,6 +13,7 @@ from walker_gait.bench.endtoend import (
     JOINT_KINDS,
     angle_errors,
     at_walker,
+    frames_off_pct,
     recovery_time,
     steps_in_view,
     true_leg_length,
@@ -132,3 +133,15 @@ def test_the_true_leg_length_is_the_standing_hips_height() -> None:
         lengths.append(true_leg_length(session))
         np.testing.assert_allclose(hips[:, 2], lengths[-1], atol=0.01)
     assert abs(lengths[0] - lengths[1]) > 0.005
+
+
+def test_frames_off_count_frames_without_a_pose_and_only_the_frames_asked_for() -> None:
+    err = np.full((6, 2, 5), 0.02)
+    err[1] = 0.3  # off
+    err[2] = np.nan  # no pose: off
+    err[3, 0] = 0.19  # mean 0.105: off
+    err[4, :, :2] = np.nan  # only the hips missing: the rest decide
+    frames = np.array([True, True, True, True, True, False])
+    assert frames_off_pct(err, frames) == pytest.approx(60.0)
+    assert frames_off_pct(err, np.array([True, False, False, False, True, True])) == 0.0
+    assert math.isnan(frames_off_pct(err, np.zeros(6, dtype=bool)))

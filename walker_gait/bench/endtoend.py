@@ -36,7 +36,8 @@ class Score:
     frames: int
     ms_per_frame: dict[str, float] = field(default_factory=dict)
     joint_err_cm: dict[str, float] = field(default_factory=dict)
-    frames_over_10cm_pct: float = float("nan")
+    frames_over_10cm_pct: float = float("nan")  # of the frames with both legs in the image
+    frames_over_10cm_at_walker_pct: float = float("nan")  # ... of those with both ankles at the walker (:func:`at_walker`)
     swap_frames: int = 0
     gt_steps: int = 0
     detected_steps: int = 0
@@ -90,6 +91,18 @@ def at_walker(truth: np.ndarray, floor: FloorPlane, roi: RoiConfig | None = None
         inside = ((pw[..., 0] >= r.near) & (pw[..., 0] <= r.forward)
                   & (pw[..., 1] <= r.left + r.center_max_shift) & (pw[..., 1] >= -(r.right + r.center_max_shift)))
     return np.asarray(inside.all(axis=1), dtype=bool)
+
+
+def frames_off_pct(err: np.ndarray, frames: np.ndarray, *, limit_m: float = 0.10) -> float:
+    """The share (%) of the ``frames`` ``(T,)`` (bool) whose mean error over the points of ``err`` ``(T, 2, 5)`` (m)
+    exceeds ``limit_m``; a frame without an estimate (all NaN) counts as off; NaN without frames."""
+    frames = np.asarray(frames, dtype=bool)
+    if not frames.any():
+        return float("nan")
+    with warnings.catch_warnings():
+        warnings.filterwarnings("ignore", message="Mean of empty slice", category=RuntimeWarning)
+        per_frame = np.nanmean(np.asarray(err, dtype=float)[frames], axis=(1, 2))
+    return float(np.mean(~(per_frame <= limit_m)) * 100)
 
 
 JOINT_KINDS: tuple[str, ...] = tuple(name.removeprefix("left_") for name in JOINT_NAMES[: len(JOINT_NAMES) // 2])
@@ -331,8 +344,9 @@ def evaluate(session: Any, *, preset: str = "default", cue: str | None = None, s
             est_angles = np.stack([np.asarray(p.angles, dtype=float) for p in poses])
             score.angle_err_deg, score.angle_bias_deg = angle_errors(est_angles[vis],
                                                                      np.asarray(session.body.angles[:n])[vis])
-            per_frame = np.nanmean(err[vis], axis=(1, 2))
-            score.frames_over_10cm_pct = float(np.mean(~(per_frame <= 0.10)) * 100)
+            score.frames_over_10cm_pct = frames_off_pct(err, vis)
+            score.frames_over_10cm_at_walker_pct = frames_off_pct(
+                err, vis & at_walker(truth, session.params.mount.floor_plane()))
             lower = slice(1, 5)  # knee..toe: the observable points
             score.swap_frames = int(np.sum(np.nanmean(swapped[vis][:, :, lower], axis=(1, 2)) + 0.05
                                            < np.nanmean(err[vis][:, :, lower], axis=(1, 2))))
