@@ -335,7 +335,8 @@ def build_parser() -> argparse.ArgumentParser:
                        "hips, knees and heels as tracked; the steps and events are the same either way)")
         p.add_argument("--leg-length-m", type=float, default=None, metavar="M",
                        help="the user's measured leg length in metres (the hip joint centre's height above the floor "
-                       "standing; floor to greater trochanter): the reported hips and knees with thighs and calves "
+                       "standing; floor to greater trochanter; with only the stature at hand, about 0.53 of it): the "
+                       "reported hips and knees with thighs and calves "
                        "of that length, which the camera cannot measure (with the pelvis placed, "
                        "--report-pelvis-window-s > 0; batch: every recording is taken to be this user's; default: not "
                        "measured, the tracker's lengths)")

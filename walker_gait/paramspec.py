@@ -54,7 +54,8 @@ NODE_PARAMS: dict[str, list[tuple[str, Any, str]]] = {
                                  "and calves of the track's median lengths so far, each knee moved along its "
                                  "tracked calf to it (`walker_gait.core.pelvis`; 0 = as tracked)"),
         ("leg_length_m", 0.0, "m; the user's measured leg length (the hip joint centre's standing height above the "
-                              "floor: floor to greater trochanter): with the pelvis placed, the published thighs and "
+                              "floor: floor to greater trochanter; only the stature known: about 0.53 of it): with the "
+                              "pelvis placed, the published thighs and "
                               "calves have that length, each knee moved along its tracked calf (the camera measures "
                               "neither; `walker_gait.core.pelvis.with_leg_length`; 0 = not measured: the tracker's; "
                               "may be set while the node runs, for the next user: `ros2 param set /leg_tracker "

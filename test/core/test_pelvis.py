@@ -295,6 +295,10 @@ def test_a_leg_length_must_be_in_metres_within_an_adults_range() -> None:
     for bad in (88.0, 1.75, 0.2, float("nan"), "0.9", True):
         with pytest.raises(ValueError, match="leg_length_m .* metres"):
             pv.check_leg_length(bad)
+    with pytest.raises(ValueError, match=r"a stature\? .* 0\.93 m"):  # 0.530 x 1.75
+        pv.check_leg_length(1.75)
+    with pytest.raises(ValueError, match=r"centimetres\? 0\.88 m"):
+        pv.check_leg_length(88)
     poses, _ = _walk(n=5)
     with pytest.raises(ValueError, match="leg_length_m"):
         pv.place_poses(poses, leg_length_m=90.0)

@@ -53,6 +53,7 @@ from walker_gait.core.types import ANKLE, HEEL, HIP, KNEE, TOE, FloorPlane, LegP
 FloatArray = NDArray[np.float64]
 
 __all__ = [
+    "HIP_HEIGHT_SHARE",
     "LEG_LENGTH_RANGE_M",
     "LivePelvis",
     "PLACE_WINDOW_S",
@@ -231,6 +232,11 @@ LEG_LENGTH_RANGE_M = (0.5, 1.3)
 is a mistake (centimetres, a stature) rather than a user."""
 
 
+HIP_HEIGHT_SHARE = 0.530
+"""The hip joint centre's (greater trochanter's) standing height as a share of stature (Winter's segment lengths):
+what the refusal of a stature given as a leg length suggests instead."""
+
+
 def check_leg_length(leg_length_m: float | None) -> float | None:
     """``leg_length_m`` as a float, ``None`` when not measured (``None`` or 0, the parameters' "not measured"), or
     a ``ValueError`` naming the accepted range (a string, NaN or a value outside :data:`LEG_LENGTH_RANGE_M`)."""
@@ -243,6 +249,11 @@ def check_leg_length(leg_length_m: float | None) -> float | None:
     if not (number and lo <= leg_length_m <= hi):
         msg = (f"leg_length_m must be the standing height of the hip joint above the floor in metres, within "
                f"{lo}-{hi}, got {leg_length_m!r} (0 = not measured)")
+        if number and hi < leg_length_m <= 2.5:
+            msg += (f"; a stature? the hip joint stands at about {HIP_HEIGHT_SHARE} of it: "
+                    f"{HIP_HEIGHT_SHARE * leg_length_m:.2f} m")
+        elif number and 100 * lo <= leg_length_m <= 100 * hi:
+            msg += f"; centimetres? {leg_length_m / 100:.2f} m"
         raise ValueError(msg)
     return float(leg_length_m)
 

@@ -528,8 +528,9 @@ def reported_poses(poses: Sequence[LegPose], *, hide_below: float, max_gap_s: fl
     ``max_gap_s`` long (:func:`bridge_hidden_legs`; 0: not bridged), then points and angles low-passed at
     ``lowpass_hz`` (:func:`lowpass_poses`; 0: not filtered), then, with ``floors``, the out-of-view pelvis placed
     over the ankles averaged over ``pelvis_window_s`` and the hips, knees and joint angles re-solved with the knees
-    and feet held (:func:`walker_gait.core.pelvis.place_poses`, ``mounting`` as the tracker's, the thighs and calves
-    of a measured ``leg_length_m`` if given; 0: as tracked).
+    and feet held, each track with one length of each segment, its median, the knees and heels moved to it
+    (:func:`walker_gait.core.pelvis.place_poses`, ``mounting`` as the tracker's, the thighs and calves of a measured
+    ``leg_length_m`` if given; 0: as tracked).
     With ``floors`` (one per pose) all work in each frame's walker frame (:meth:`FloorPlane.walker_transform`), which
     stays with the walker while its camera rocks on the wheels: in the camera frame that rocking is motion of the
     legs a low-pass would take out; frames without a valid floor are reported as tracked.  The gait analyzer reads
