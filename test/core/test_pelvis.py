@@ -395,7 +395,8 @@ def test_a_track_is_reported_with_one_length_of_each_segment() -> None:
         assert np.abs(a[:, :, [HIP, KNEE]] - w[:, :, [HIP, KNEE]]).max() < 0.005
         assert np.abs(b[:, :, KNEE] - w[:, :, KNEE]).max() > 0.04
     assert np.median(_lengths(after[46:])[1]) - np.median(_lengths(after[:45])[1]) > 0.025
-    np.testing.assert_allclose(pv.segment_lengths(before[:45])[1:], [np.median(_lengths(before[:45])[k]) for k in (0, 1)])
+    np.testing.assert_allclose(pv.segment_lengths(before[:45])[1:],
+                               [np.median(_lengths(before[:45])[k]) for k in (0, 1)])
     assert np.all(np.isnan(pv.segment_lengths(np.full((3, 2, 5, 3), np.nan))))
     # live: the heels as tracked; the knees and hips those of the clean walk's live placement
     floor = _floor()

@@ -37,7 +37,7 @@ class Score:
     ms_per_frame: dict[str, float] = field(default_factory=dict)
     joint_err_cm: dict[str, float] = field(default_factory=dict)
     frames_over_10cm_pct: float = float("nan")  # of the frames with both legs in the image
-    frames_over_10cm_at_walker_pct: float = float("nan")  # ... of those with both ankles at the walker (:func:`at_walker`)
+    frames_over_10cm_at_walker_pct: float = float("nan")  # ... with both ankles at the walker (:func:`at_walker`)
     swap_frames: int = 0
     gt_steps: int = 0
     detected_steps: int = 0

@@ -270,6 +270,10 @@ def segment_lengths(points: FloatArray) -> FloatArray:
                      for a, b in ((HIP, KNEE), (KNEE, ANKLE), (TOE, HEEL))])
 
 
+_UP = np.array([0.0, 0.0, 1.0])
+_BACK = np.array([-1.0, 0.0, 0.0])  # body frame: the heel behind the toe
+
+
 def with_lengths(states: FloatArray, held: FloatArray, *, thigh: float | FloatArray, calf: float | FloatArray,
                  foot: float | FloatArray | None = None) -> tuple[FloatArray, FloatArray]:
     """``states`` ``(F, 23)`` with these thigh and calf lengths (m) and ``held`` ``(F, 2, 4, 3)``
@@ -287,10 +291,6 @@ def with_lengths(states: FloatArray, held: FloatArray, *, thigh: float | FloatAr
     if foot is not None:
         h[:, :, 2] = _along(h[:, :, 3], h[:, :, 2], x[:, L.LEN_FOOT], _BACK)
     return x, h
-
-
-_UP = np.array([0.0, 0.0, 1.0])
-_BACK = np.array([-1.0, 0.0, 0.0])
 
 
 def _along(start: FloatArray, end: FloatArray, length: FloatArray, fallback: FloatArray) -> FloatArray:
@@ -437,7 +437,8 @@ class LivePelvis:
         legs = np.median(self._lengths[: min(self._n_lengths, LIVE_LENGTHS_FRAMES)].reshape(-1, 2), axis=0)
         new, placed = _solve(body[None], np.asarray(pose.angles)[None], target[None], self.leg_length_m,
                              np.array([[*legs, np.nan]]))
-        # the new hips and knees back in the camera frame; the feet stay the tracker's, bit for bit (the gait analyzer's)
+        # the new hips and knees back in the camera frame; the feet stay the tracker's (the gait analyzer's) bit for
+        # bit
         pts = np.array(pose.points, dtype=np.float64, copy=True)
         pts[:, [HIP, KNEE]] = (placed[0][:, [HIP, KNEE]] @ self._flip - t) @ rot
         out = with_points(pose, pts, angles=lm.joint_angles(new[0]))
@@ -455,9 +456,9 @@ def _solve(points: FloatArray, angles: FloatArray, target: FloatArray, leg_lengt
            lengths: FloatArray) -> tuple[FloatArray, FloatArray]:
     """Poses ``points`` ``(F, 2, 5, 3)`` (body frame) with joint ``angles`` ``(F, 12)`` placed at ``target`` ``(F, 3)``
     (:func:`pelvis_target`'s x, y, azimuth) with the thigh, calf and foot ``lengths`` ``(F, 3)`` of their tracks
-    (:func:`segment_lengths`; NaN: as tracked, a NaN foot in any row: every heel as tracked), the thighs and calves of ``leg_length_m`` instead if
-    given: the solved states ``(F, 23)`` and the points with the solution's hips and knees, the heels moved to the
-    foot's length, the rest as given."""
+    (:func:`segment_lengths`; NaN: as tracked, a NaN foot in any row: every heel as tracked), the thighs and calves
+    of ``leg_length_m`` instead if given: the solved states ``(F, 23)`` and the points with the solution's hips and
+    knees, the heels moved to the foot's length, the rest as given."""
     states = np.stack([pose_state(p, a) for p, a in zip(points, angles)])
     held = np.asarray(points, dtype=np.float64)[:, :, _HELD]
     lengths = np.asarray(lengths, dtype=np.float64).reshape(len(states), 3)
