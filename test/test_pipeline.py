@@ -399,6 +399,15 @@ def test_two_passes_merge_the_forward_pass_with_a_backward_one(short_session: Pa
     assert (meta_two["bridge_hidden_s"], meta_two["report_lowpass_hz"]) == (1.0, 6.0)
     assert meta_one["bridge_hidden_s"] is None and meta_one["report_lowpass_hz"] is None
     assert (meta_two["report_pelvis_window_s"], meta_one["report_pelvis_window_s"]) == (1.0, 0.0)
+    # the reported legs' median lengths and the hip height they make (the reported hips' height rests on them)
+    from walker_gait.core.leg_model import ANKLE_HEIGHT
+    from walker_gait.core.pelvis import segment_lengths
+
+    lengths = meta_two["reported_segment_lengths_m"]
+    want = segment_lengths(np.stack([p.points for p in two.poses if np.all(np.isfinite(p.points))]))
+    np.testing.assert_allclose([lengths[k] for k in ("thigh", "calf", "foot")], want, atol=5e-4)
+    assert lengths["leg"] == pytest.approx(want[0] + want[1] + ANKLE_HEIGHT * want[2], abs=5e-4)
+    assert 0.3 < lengths["thigh"] < 0.55 and 0.2 < lengths["foot"] < 0.33
     assert two.summary["mean_confidence"] == pytest.approx(np.mean([s.confidence for s in two.steps]))
 
 

@@ -135,6 +135,7 @@ METADATA = {
     "processing_time_s": 12.5,
     "report_pelvis_window_s": 1.0,
     "leg_length_m": None,
+    "reported_segment_lengths_m": {"thigh": 0.412, "calf": 0.398, "foot": 0.262, "leg": 0.902},
 }
 
 
@@ -208,7 +209,8 @@ def test_full_report_is_valid_self_contained_html(tmp_path: Path, session) -> No
     # clinical names, units, escaped metadata
     for needle in ("Cadence", "steps/min", "Gait speed", "m/s", "Step length, mean", "cm", "% gait cycle",
                    "Step length symmetry", "Left", "Right", "patient_&lt;07&gt;.mcap", "depth_decode_error: 2",
-                   "Frames skipped", "Leg length given (m)</th><td>—", "window (s; 0 = as tracked)</th><td>1.0"):
+                   "Frames skipped", "Leg length given (m)</th><td>—", "window (s; 0 = as tracked)</th><td>1.0",
+                   "thigh, calf, shoe; hip height</th><td>0.412, 0.398, 0.262; 0.902"):
         assert needle in text, needle
     assert "patient_<07>" not in text
     assert "100.0" in text  # cadence

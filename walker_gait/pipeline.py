@@ -17,7 +17,7 @@ import sys
 import time
 import warnings
 from collections import Counter
-from collections.abc import Iterable, Iterator, Mapping
+from collections.abc import Iterable, Iterator, Mapping, Sequence
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
 from typing import Any
@@ -634,6 +634,21 @@ class ProcessResult:
         return "\n".join(lines)
 
 
+def _reported_lengths(poses: Sequence[LegPose]) -> dict[str, float] | None:
+    """The median thigh, calf and foot (heel to toe) length of the reported poses (m, to the mm) and the standing hip
+    height they make (``leg``: thigh + calf + the model's ankle height), which sets the reported hips' height;
+    ``None`` without a pose."""
+    from walker_gait.core.leg_model import ANKLE_HEIGHT
+    from walker_gait.core.pelvis import segment_lengths
+
+    pts = [p.points for p in poses if np.all(np.isfinite(p.points))]
+    if not pts:
+        return None
+    thigh, calf, foot = (float(v) for v in segment_lengths(np.stack(pts)))
+    return {k: round(v, 3) for k, v in
+            (("thigh", thigh), ("calf", calf), ("foot", foot), ("leg", thigh + calf + ANKLE_HEIGHT * foot))}
+
+
 def _summary_dict(analyzer_summary: Any) -> dict[str, Any]:
     if hasattr(analyzer_summary, "to_dict"):
         return dict(analyzer_summary.to_dict())
@@ -1038,6 +1053,7 @@ def process_recording(path: Path, out_dir: Path, *, options: PipelineOptions | N
         "report_lowpass_hz": options.report_lowpass_hz if two_way else None,
         "report_pelvis_window_s": options.report_pelvis_window_s,
         "leg_length_m": (options.leg_length_m or None) if options.report_pelvis_window_s > 0 else None,
+        "reported_segment_lengths_m": _reported_lengths(poses),
         "frames_total": n_frames,
         "frames_processed": processed,
         "frames_skipped": dict(skipped),

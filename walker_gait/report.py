@@ -660,6 +660,7 @@ _META_LABELS: tuple[tuple[str, str], ...] = (
     ("steps_unconfirmed", "Steps the two passes did not confirm"),
     ("report_pelvis_window_s", "Hips placed over the feet, window (s; 0 = as tracked)"),
     ("leg_length_m", "Leg length given (m)"),
+    ("reported_segment_lengths_m", "Reported lengths (m, median): thigh, calf, shoe; hip height"),
     ("frames_skipped_total", "Frames skipped"),
     ("processing_time_s", "Processing time (s)"),
     ("walker_gait_version", "walker_gait version"),
@@ -677,6 +678,9 @@ def _metadata_table(metadata: Mapping[str, Any], extra_rows: Sequence[tuple[str,
         shown.add(key)
         if key == "processing_time_s":
             rows.append((label, _fmt(value, 1)))
+        elif key == "reported_segment_lengths_m" and isinstance(value, Mapping):
+            rows.append((label, ", ".join(_fmt(value.get(k), 3) for k in ("thigh", "calf", "foot"))
+                         + f"; {_fmt(value.get('leg'), 3)}"))
         elif value is None:
             rows.append((label, "—"))
         else:
