@@ -3,6 +3,7 @@ next good frame is processed. Messages enter through the same dispatch path as D
 
 from __future__ import annotations
 
+import math
 from collections.abc import Iterator
 from typing import Any
 
@@ -727,3 +728,54 @@ def test_leg_tracker_leg_length_reaches_the_placement_and_is_validated(rclpy_con
         node.destroy_node()
     with pytest.raises(ParameterError, match="leg_tracker.leg_length_m .*metres"):
         LegTrackerNode(parameter_overrides=[rclpy.parameter.Parameter("leg_length_m", value=88.0)])
+
+
+def test_busy_monitor_says_once_per_episode_that_a_node_falls_behind() -> None:
+    """Work against the span of the frames' stamps: a node that spends longer on a frame than the camera leaves
+    between frames falls behind (said once, until it has kept up again); a replay that loops starts afresh."""
+    from walker_gait.ros.base import BusyMonitor
+
+    m = BusyMonitor(window=20, min_frames=5)
+    said = [m.add(i / 30, 0.010) for i in range(20)]  # 10 ms of work every 33 ms: keeps up
+    assert not any(said) and m.busy == pytest.approx(0.3) and not m.overloaded
+    assert m.work_ms == pytest.approx(10.0) and m.interval_ms == pytest.approx(1000 / 30)
+    said = [m.add(20 / 30 + i / 30, 0.060) for i in range(1, 21)]  # 60 ms of work every 33 ms
+    assert said.count(True) == 1 and m.overloaded and m.busy == pytest.approx(1.8) and m.episodes == 1
+    t = 40 / 30
+    for i in range(1, 21):  # frames dropped: the ones worked on lie 100 ms apart, 60 ms each: busy 60 %
+        assert not m.add(t + i * 0.1, 0.060)
+    assert not m.overloaded and m.busy == pytest.approx(0.6)
+    assert m.add(t + 2.0 + 1 / 30, 0.2) is False  # one slow frame in a window of quick ones
+    assert not m.add(0.0, 0.01) and math.isnan(m.busy)  # the replay looped: afresh
+    with pytest.raises(ValueError):
+        BusyMonitor(window=3, min_frames=5)
+
+
+def test_leg_tracker_says_when_it_cannot_keep_up_and_diagnostics_warn(rclpy_context: None) -> None:
+    """Frames stamped 1 ms apart (far more than any tracker keeps up with): the node falls behind once, its
+    /diagnostics turn WARN with the share of the time it is busy; frames a second apart: it keeps up again, OK."""
+    from walker_gait.bench.tracker import KINECT
+
+    node, joints = make_tracker_node()
+    sent: list[Any] = []
+    node._diag_pub = type("Pub", (), {"publish": lambda self, data: sent.append(M.deserialize(data, M.DIAGNOSTIC_ARRAY))})()
+    try:
+        node.dispatch("depth/camera_info", M.CAMERA_INFO, node.on_info,
+                      M.serialize(M.make_camera_info(KINECT, M.make_header(1.0, "cam"))))
+        fr = standing_frame(1.0)
+        for i in range(20):
+            dispatch_parts(node, 1.0 + i * 0.001, points=fr.points, mask=np.isfinite(fr.depth))
+        assert len(joints) == 20 and node.busy_monitor is not None
+        assert node.busy_monitor.overloaded and node.busy_monitor.episodes == 1 and node.busy_monitor.busy > 1
+        node._publish_diagnostics()
+        status = sent[-1].status[0]
+        values = {kv.key: kv.value for kv in status.values}
+        assert status.level == 1 and "cannot keep up" in status.message
+        assert float(values["busy_pct"]) > 100 and float(values["work_ms_mean"]) > 1
+        for i in range(60):
+            dispatch_parts(node, 2.0 + i, points=fr.points, mask=np.isfinite(fr.depth))
+        assert not node.busy_monitor.overloaded and node.busy_monitor.episodes == 1
+        node._publish_diagnostics()
+        assert sent[-1].status[0].level == 0 and sent[-1].status[0].message == "ok"
+    finally:
+        node.destroy_node()

@@ -180,7 +180,8 @@ def run_live(path: Path, *, rate: float = 1.0, timeout_s: float = 120.0, settle_
                 os.killpg(run.pid, signal.SIGKILL)
         result.run_exit_code = run.wait()
         log_file.seek(0)
-        result.skip_log = [line.strip() for line in log_file if "frame skipped" in line or "stood in" in line]
+        result.skip_log = [line.strip() for line in log_file
+                           if "frame skipped" in line or "stood in" in line or "cannot keep up" in line]
         log_file.close()
         result.missing_stamps_ns = sorted(arrivals)
         node.destroy_node()

@@ -11,11 +11,12 @@
 from __future__ import annotations
 
 import importlib
+import math
 import signal
 import sys
 import threading
 import time
-from collections import Counter
+from collections import Counter, deque
 from collections.abc import Callable
 from typing import Any
 
@@ -78,6 +79,64 @@ def rclpy_type(typename: str) -> Any:
     return getattr(importlib.import_module(f"{pkg}.msg"), name)
 
 
+class BusyMonitor:
+    """How much of its input's time a node spends working on it: the work summed over the last ``window`` frames
+    against the span of their stamps (1.0: busy all the time).  Above ``limit`` the node cannot keep up with the
+    camera: frames wait in its input queue (latency grows to the queue's depth) and are then dropped; it counts as
+    keeping up again below ``limit`` x ``relief``.  A stamp that does not advance (a replay that loops) starts
+    afresh."""
+
+    def __init__(self, *, window: int = 60, limit: float = 0.95, relief: float = 0.85, min_frames: int = 15) -> None:
+        if not (window >= min_frames >= 2 and 0.0 < relief < 1.0 and limit > 0.0):
+            raise ValueError(f"window >= min_frames >= 2, 0 < relief < 1 and limit > 0, got {window}, {min_frames}, "
+                             f"{relief}, {limit}")
+        self.limit = limit
+        self.relief = relief
+        self.min_frames = min_frames
+        self._frames: deque[tuple[float, float]] = deque(maxlen=window)
+        self.overloaded = False
+        self.episodes = 0  # times it started falling behind
+
+    def add(self, stamp_s: float, work_s: float) -> bool:
+        """Record one frame (its stamp, s, and the wall time, s, spent on it); True when this frame makes a node
+        that was keeping up fall behind (to be said once per episode)."""
+        if self._frames and stamp_s <= self._frames[-1][0]:
+            self._frames.clear()
+            self.overloaded = False
+        self._frames.append((stamp_s, work_s))
+        busy = self.busy
+        if not math.isfinite(busy):
+            return False
+        if not self.overloaded and busy > self.limit:
+            self.overloaded = True
+            self.episodes += 1
+            return True
+        if self.overloaded and busy < self.limit * self.relief:
+            self.overloaded = False
+        return False
+
+    @property
+    def busy(self) -> float:
+        """Work over stamp span of the frames in the window (the first frame's work left out: it opens the span);
+        NaN before ``min_frames`` frames."""
+        if len(self._frames) < self.min_frames:
+            return math.nan
+        span = self._frames[-1][0] - self._frames[0][0]
+        return sum(w for _, w in list(self._frames)[1:]) / span if span > 0 else math.nan
+
+    @property
+    def work_ms(self) -> float:
+        """Mean wall time a frame (ms) over the window; NaN without frames."""
+        return 1e3 * sum(w for _, w in self._frames) / len(self._frames) if self._frames else math.nan
+
+    @property
+    def interval_ms(self) -> float:
+        """Mean stamp interval (ms) between the frames worked on in the window; NaN with fewer than two."""
+        if len(self._frames) < 2:
+            return math.nan
+        return 1e3 * (self._frames[-1][0] - self._frames[0][0]) / (len(self._frames) - 1)
+
+
 class WalkerNode(Node):
     """Base class: guarded raw pub/sub, config-declared parameters, diagnostics."""
 
@@ -86,6 +145,7 @@ class WalkerNode(Node):
         self._problems: Counter[str] = Counter()
         self._stand_ins: Counter[str] = Counter()
         self.frames_ok = 0
+        self.busy_monitor: BusyMonitor | None = None  # made by the first :meth:`frame_timed`
         self._diag_pub = self.create_publisher(rclpy_type(M.DIAGNOSTIC_ARRAY), "/diagnostics", DIAGNOSTICS)
         self._diag_timer = self.create_timer(1.0, self._publish_diagnostics)
 
@@ -159,11 +219,33 @@ class WalkerNode(Node):
         values: dict[str, Any] = {"frames_ok": self.frames_ok}
         values.update({f"skipped.{k}": v for k, v in sorted(self._problems.items())})
         values.update({f"stood_in.{k}": v for k, v in sorted(self._stand_ins.items())})
+        busy = self.busy_monitor
+        if busy is not None and busy.work_ms == busy.work_ms:  # frames timed
+            values.update({"busy_pct": round(100 * busy.busy, 1) if busy.busy == busy.busy else "n/a",
+                           "work_ms_mean": round(busy.work_ms, 1), "falling_behind_episodes": busy.episodes})
+            if busy.overloaded:
+                level = 1
+                message = ("cannot keep up with its input" if message == "ok"
+                           else f"{message}; cannot keep up with its input")
         now = self.get_clock().now().nanoseconds
         msg = M.make_diagnostics(M.make_header(M.make_time(now, ns=True), ""), name=f"walker_gait: {self.get_name()}",
                                  hardware_id=self.get_fully_qualified_name(), level=level, message=message,
                                  values=values)
         self._diag_pub.publish(M.serialize(msg))
+
+    def frame_timed(self, stamp_s: float, work_s: float, *, advice: str) -> None:
+        """Record the wall time ``work_s`` spent on the frame stamped ``stamp_s`` (:class:`BusyMonitor`); when the
+        node starts falling behind its input, say so once (a warning with the figures and ``advice``); while it is
+        behind, /diagnostics is at WARN."""
+        if self.busy_monitor is None:
+            self.busy_monitor = BusyMonitor()
+        m = self.busy_monitor
+        if m.add(stamp_s, work_s):
+            self.get_logger().warning(
+                f"cannot keep up with its input: {m.work_ms:.0f} ms of work on each frame it took, those frames "
+                f"{m.interval_ms:.0f} ms apart by their stamps: busy {100 * m.busy:.0f} % of the time; frames wait in "
+                f"the input queue and are dropped when it overflows; {advice} (falling behind {m.episodes}x; on "
+                "/diagnostics)")
 
     @property
     def problems(self) -> dict[str, int]:
@@ -257,6 +339,6 @@ def install_interrupt_handlers() -> threading.Event:
 
 
 __all__ = [
-    "DIAGNOSTICS", "EVENTS", "LATCHED", "SENSOR_IN", "STREAM", "STREAM_IN", "WalkerNode", "input_qos",
+    "DIAGNOSTICS", "EVENTS", "LATCHED", "SENSOR_IN", "STREAM", "STREAM_IN", "BusyMonitor", "WalkerNode", "input_qos",
     "rclpy_type", "spin_node",
 ]

@@ -420,6 +420,7 @@ class LegTrackerNode(WalkerNode):
         self.track(complete)
 
     def track(self, parts: dict[str, Any]) -> None:
+        t0 = time.perf_counter()
         header = parts["points"].header
         mask = M.image_to_mask(parts["mask"])
         no_depth = M.image_to_no_depth(parts["mask"])
@@ -438,6 +439,9 @@ class LegTrackerNode(WalkerNode):
         self.pub_track(M.make_leg_track(pose, header, particle_count=int(getattr(self.config, "n_particles", 0))))
         self.pub_markers(M.make_markers(pose, header))
         self.frames_ok += 1
+        self.frame_timed(M.stamp_to_s(header.stamp), time.perf_counter() - t0,
+                         advice="fewer particles (n_particles) or a lighter preset keep up; input_depth 1-2 tracks the "
+                                "newest frames with less latency")
 
 
 # -------------------------------------------------------------------------------- gait_analyzer
