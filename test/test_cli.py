@@ -228,3 +228,13 @@ def test_recording_without_calibration_fails_clearly_and_camera_info_yaml_fixes_
     ref = walker_gait("process", str(full), "--out", str(tmp_path / "ref"), "--quiet")
     assert ref.returncode == 0, ref.stderr
     assert (tmp_path / "ok" / "joints.csv").read_bytes() == (tmp_path / "ref" / "joints.csv").read_bytes()
+
+
+def test_the_live_demo_says_when_the_machine_was_too_slow_for_it() -> None:
+    from walker_gait.demo import too_slow_note
+
+    log = ["[ERROR] [1.0] [leg_tracker]: frame stamped 0.767 s dropped: ... (frame skipped; ...)",
+           "[WARN] [2.0] [leg_tracker]: cannot keep up with its input: 104 ms of work on each frame it took, ..."]
+    note = too_slow_note(log)
+    assert note is not None and "too slow" in note and log[1] in note and "make demo" in note
+    assert too_slow_note(log[:1]) is None and too_slow_note([]) is None

@@ -86,6 +86,17 @@ def joint_errors_cm(poses: list[Any], gt: dict[str, Any]) -> dict[str, float]:
     return out
 
 
+def too_slow_note(log_lines: list[str]) -> str | None:
+    """What to tell the user of a live demo whose leg tracker said it could not keep up (its first such line of the
+    graph's log ``log_lines``): the steps are then those of the frames it got to, not what the software does with
+    every frame; ``None`` if it kept up."""
+    behind = [line for line in log_lines if "cannot keep up" in line]
+    if not behind:
+        return None
+    return ("note: this machine is too slow for the live graph at the camera's rate; the leg tracker said:\n  "
+            + behind[0] + "\n  (`make demo` tracks the same recording offline, every frame)")
+
+
 def run_demo(*, out: Path, live: bool, seed: int, quiet: bool) -> int:
     from walker_gait.pipeline import format_steps_table, format_summary
 
@@ -104,6 +115,9 @@ def run_demo(*, out: Path, live: bool, seed: int, quiet: bool) -> int:
         print(f"frames in/out: {live_res.images}/{live_res.joint_states}; latency image -> JointState median "
               f"{live_res.median_latency_ms:.0f} ms, p95 {live_res.p95_latency_ms:.0f} ms; skipped: "
               f"{live_res.skipped or 'none'}; walker-gait run exit code {live_res.run_exit_code}")
+        note = too_slow_note(live_res.skip_log)
+        if note:
+            print(note)
     else:
         from walker_gait.pipeline import PipelineOptions, process_recording
 
