@@ -220,8 +220,8 @@ class WalkerNode(Node):
         values.update({f"skipped.{k}": v for k, v in sorted(self._problems.items())})
         values.update({f"stood_in.{k}": v for k, v in sorted(self._stand_ins.items())})
         busy = self.busy_monitor
-        if busy is not None and busy.work_ms == busy.work_ms:  # frames timed
-            values.update({"busy_pct": round(100 * busy.busy, 1) if busy.busy == busy.busy else "n/a",
+        if busy is not None and math.isfinite(busy.work_ms):  # frames timed
+            values.update({"busy_pct": round(100 * busy.busy, 1) if math.isfinite(busy.busy) else "n/a",
                            "work_ms_mean": round(busy.work_ms, 1), "falling_behind_episodes": busy.episodes})
             if busy.overloaded:
                 level = 1
