@@ -641,10 +641,11 @@ def _reported_lengths(poses: Sequence[LegPose]) -> dict[str, float] | None:
     from walker_gait.core.leg_model import ANKLE_HEIGHT
     from walker_gait.core.pelvis import segment_lengths
 
-    pts = [p.points for p in poses if np.all(np.isfinite(p.points))]
-    if not pts:
+    if not poses:
         return None
-    thigh, calf, foot = (float(v) for v in segment_lengths(np.stack(pts)))
+    thigh, calf, foot = (float(v) for v in segment_lengths(np.stack([p.points for p in poses])))
+    if not math.isfinite(thigh):  # no pose with all its points
+        return None
     return {k: round(v, 3) for k, v in
             (("thigh", thigh), ("calf", calf), ("foot", foot), ("leg", thigh + calf + ANKLE_HEIGHT * foot))}
 

@@ -309,14 +309,8 @@ def with_leg_length(states: FloatArray, held: FloatArray, leg_length_m: float) -
     calf length (:func:`with_lengths`).  The camera sees neither the thigh nor the knee, so the tracker's leg lengths
     are the model's guess (per session 5 cm off in height at the hips, sd); a clinic measures the leg length anyway
     (GAITRite and gait labs normalise by it)."""
-    x = np.array(states, dtype=np.float64, copy=True)
-    legs = leg_length_m - lm.ANKLE_HEIGHT * x[:, L.LEN_FOOT]
-    x[:, L.LEN_THIGH] = THIGH_SHARE * legs
-    x[:, L.LEN_CALF] = (1.0 - THIGH_SHARE) * legs
-    x = lm.clip_to_limits(x)
-    h = np.array(held, dtype=np.float64, copy=True)
-    h[:, :, 0] = _along(h[:, :, 1], h[:, :, 0], x[:, L.LEN_CALF], _UP)
-    return x, h
+    legs = leg_length_m - lm.ANKLE_HEIGHT * np.asarray(states, dtype=np.float64)[:, L.LEN_FOOT]
+    return with_lengths(states, held, thigh=THIGH_SHARE * legs, calf=(1.0 - THIGH_SHARE) * legs)
 
 
 def _placeable(pose: LegPose) -> bool:
