@@ -2,10 +2,12 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 
-from walker_gait.core.feet import ToeFit, across_only, measure_toes, toes_in_view
+from walker_gait.core.feet import ShoeRiseFit, ToeFit, across_only, measure_shoe_rise, measure_toes, toes_in_view
 from walker_gait.core.types import ANKLE, HEEL, TOE, CameraIntrinsics
 
 CAMERA = np.array([1.0, 0.0, 0.45])  # body frame: the walker's camera ahead of the user, 45 cm up
@@ -271,3 +273,49 @@ def test_a_toe_box_nearer_than_the_sensor_reaches_is_not_measured() -> None:
     speckle = np.zeros_like(no_depth)
     speckle[v - 4: v + 5: 3, u - 4: u + 5: 3] = True
     assert toes_in_view(legs_cam, toes_cam, intrinsics=INTR, no_depth=speckle)[0]
+
+
+def _upper(toe: np.ndarray, heading: float, pitch: float, rng: np.random.Generator, n: int = 700) -> np.ndarray:
+    """Points on a shoe's upper seen from the front (1 mm depth noise): 26 cm long, 9 cm wide, rising from 3 cm over
+    the sole at the toe box to 10 cm at the instep 16 cm back (25 deg), the shoe turned about its toe tip (on the
+    floor) heel-up by ``pitch`` (rad) and headed ``heading`` (rad) on the floor."""
+    s = rng.uniform(0.0, 0.16, n)  # behind the toe tip, along the sole
+    w = rng.uniform(-0.045, 0.045, n)
+    h = 0.03 + 0.07 * s / 0.16 + rng.normal(0.0, 0.001, n)
+    back = -s * np.cos(pitch) + h * np.sin(pitch)  # along the foot, towards the toe positive
+    up = s * np.sin(pitch) + h * np.cos(pitch)
+    c, si = np.cos(heading), np.sin(heading)
+    return np.column_stack([toe[0] + back * c - w * si, toe[1] + back * si + w * c, up])
+
+
+def test_a_shoe_turned_heel_up_rises_by_its_pitch() -> None:
+    """The rise of the visible upper behind the toe is the shoe's own flat and that plus the pitch heel-up: a rigid
+    shoe turns with its foot.  It does not depend on where along the foot the tracker put the heel, and the other
+    shoe beside it is not taken for this one."""
+    rng = np.random.default_rng(7)
+    toes = np.array([[0.30, 0.08, 0.0], [0.25, -0.05, 0.0]])  # side by side, 1.5-4 cm apart: in each other's strip
+    flat_rise = math.atan(0.07 / 0.16)
+    for pitch_deg in (0.0, 10.0, 25.0, 40.0):
+        p = np.radians(pitch_deg)
+        pts = np.vstack([_upper(toes[0], 0.1, p, rng), _upper(toes[1], 0.0, 0.0, rng)])
+        heels = toes - 0.26 * np.array([[np.cos(0.1), np.sin(0.1), 0.0], [1.0, 0.0, 0.0]])
+        heels[0, 2] = 0.26 * np.sin(p) * 0.5  # the tracker's heel: half as high as the real one
+        got = measure_shoe_rise(_legs(heels, toes), pts)
+        assert abs(got[0] - (flat_rise + p)) < np.radians(1.0), np.degrees(got[0])
+        assert abs(got[1] - flat_rise) < np.radians(1.0), np.degrees(got[1])
+
+
+def test_a_shoe_without_enough_upper_in_view_is_not_measured() -> None:
+    rng = np.random.default_rng(8)
+    toes = np.array([[0.30, 0.08, 0.0], [0.05, -0.08, 0.0]])
+    heels = toes - np.array([0.26, 0.0, 0.0])
+    few = _upper(toes[0], 0.0, 0.0, rng, n=10)
+    got = measure_shoe_rise(_legs(heels, toes), few)
+    assert np.all(np.isnan(got))
+    legs = _legs(heels, toes)
+    legs[1, TOE] = np.nan
+    assert np.all(np.isnan(measure_shoe_rise(legs, _upper(toes[0], 0.0, 0.0, rng))))
+    with pytest.raises(ValueError, match="legs"):
+        measure_shoe_rise(np.zeros((2, 4, 3)), few)
+    with pytest.raises(ValueError, match="min_points"):
+        ShoeRiseFit(min_points=2)

@@ -412,3 +412,81 @@ def test_a_track_is_reported_with_one_length_of_each_segment() -> None:
     ok = np.ones(90, dtype=bool)
     ok[45] = False
     assert np.abs(got[ok][:, :, [HIP, KNEE]] - live_want[ok][:, :, [HIP, KNEE]]).max() < 0.005
+
+
+def _stand_then_heel_up(*, tracked_pitch_deg: float, n: int = 60, fps: float = 30.0) -> list[LegPose]:
+    """Standing with both feet flat for ``n // 2`` frames, then the left heel up by 20 deg (the pelvis over it moved
+    back, the knee bent) while the tracker reports that foot pitched only ``tracked_pitch_deg`` heel-up; walker frame.
+    A foot's pitch (toe up) is hip flexion - knee flexion + ankle dorsiflexion."""
+    poses = []
+    for i in range(n):
+        if i < n // 2:
+            left = [0, 2, 0, 5, 5, 0]
+        else:
+            hip, knee = -10.0, 15.0
+            left = [hip, 2, 0, knee, knee - hip - tracked_pitch_deg, 0]
+        x = _state([*left, 0, 2, 0, 5, 5, 0])
+        poses.append(LegPose(stamp=i / fps, points=lm.forward_kinematics(x).points[0] @ FLIP,
+                             angles=lm.joint_angles(x), segments=np.zeros((2, 3, 2, 3))))
+    return poses
+
+
+def test_a_heel_is_reported_at_the_pitch_its_shoe_upper_shows() -> None:
+    """The tracker holds a foot in its heel rise several degrees flatter than it is (its foot is fitted to the whole
+    leg's data), while the shoe's upper, the foot's best-seen surface, turns with the foot: the rise measured on the
+    track's flat frames calibrates the shoe, and a frame whose upper rises 20 deg more is reported with its heel 20
+    deg up behind the seen toe, the track's foot length from it, along the tracked heading; a flat foot stays put.  An
+    upper whose rise scatters over the flat frames (a trouser hem over the shoe) or too few flat frames leave the
+    heels as tracked."""
+    rng = np.random.default_rng(5)
+    tracked = _stand_then_heel_up(tracked_pitch_deg=8.0)
+    n = len(tracked)
+    shoe = 0.25  # rad: the shoe's own rise, toe box to instep
+    rise = shoe + rng.normal(0.0, 0.002, (n, 2))
+    rise[n // 2:, 0] += np.radians(20.0)
+    with_rise = [dataclasses.replace(p, shoe_rise=r) for p, r in zip(tracked, rise)]
+    before = np.stack([p.points for p in tracked]) @ FLIP
+    flat = before[: n // 2, :, [HEEL, TOE], 2]
+    assert np.all(flat < pv.SHOE_FLAT_HEIGHT_M) and np.all(flat > -0.005)  # both feet stand flat at first
+    plain = np.stack([p.points for p in pv.place_poses(tracked)]) @ FLIP
+    after = np.stack([p.points for p in pv.place_poses(with_rise)]) @ FLIP
+    toe, heel = before[n // 2:, 0, TOE], before[n // 2:, 0, HEEL]
+    length = np.linalg.norm(before[0, 0, TOE] - before[0, 0, HEEL])
+    heading = (heel - toe)[:, :2] / np.linalg.norm((heel - toe)[:, :2], axis=-1, keepdims=True)
+    p = np.radians(20.0)
+    want = toe + length * np.column_stack([np.cos(p) * heading, np.full(len(toe), np.sin(p))])
+    assert np.abs(after[n // 2:, 0, HEEL] - want).max() < 0.003
+    assert np.abs(plain[n // 2:, 0, HEEL] - want).max() > 0.04  # as tracked: 12 deg too flat, 5 cm off
+    np.testing.assert_array_equal(after[..., [ANKLE, TOE], :], before[..., [ANKLE, TOE], :])
+    assert np.abs(after[:, 1, HEEL] - plain[:, 1, HEEL]).max() < 0.002  # the flat right foot: as before
+    # the angles are solved for the reported points: the ankle more plantarflexed with the heel up (the ankle point
+    # held where tracked keeps the solved foot between the two pitches)
+    ank = 4  # left ankle dorsiflexion in JOINT_NAMES order
+    placed_ank = np.array([q.angles[ank] for q in pv.place_poses(with_rise)[n // 2:]])
+    plain_ank = np.array([q.angles[ank] for q in pv.place_poses(tracked)[n // 2:]])
+    assert np.all(plain_ank - placed_ank > np.radians(3.0))
+    # no clean upper: the rise scatters 3 deg; or a track with only 5 flat frames
+    scattered = rise + rng.normal(0.0, np.radians(3.0), (n, 2))
+    noisy = [dataclasses.replace(q, shoe_rise=r) for q, r in zip(tracked, scattered)]
+    np.testing.assert_allclose(np.stack([q.points for q in pv.place_poses(noisy)]) @ FLIP, plain, atol=1e-12)
+    short = with_rise[n // 2 - 5:]  # the left foot's five flat frames (the right one is flat throughout)
+    np.testing.assert_allclose(np.stack([q.points[0, HEEL] for q in pv.place_poses(short)]),
+                               np.stack([q.points[0, HEEL] for q in pv.place_poses(tracked[n // 2 - 5:])]), atol=1e-12)
+
+
+def test_shoe_pitch_is_the_rise_less_the_flat_shoes() -> None:
+    """:func:`shoe_pitch` per foot: the median rise of the flat frames less each frame's rise; NaN for a foot without
+    enough flat frames, one whose flat rise scatters, and unmeasured frames."""
+    n = 30
+    pts = np.zeros((n, 2, 5, 3))
+    pts[:, :, TOE, 0] = 0.26
+    pts[20:, 0, HEEL, 2] = 0.08  # the left heel up in the last ten frames
+    rise = np.full((n, 2), 0.3)
+    rise[20:, 0] = 0.3 + np.radians(18.0)
+    rise[5, 1] = np.nan
+    rise[:, 1] += np.radians(np.linspace(-2.0, 2.0, n))[np.random.default_rng(1).permutation(n)]  # scatters 1 deg
+    got = pv.shoe_pitch(pts, rise)
+    np.testing.assert_allclose(got[:20, 0], 0.0)
+    np.testing.assert_allclose(got[20:, 0], -np.radians(18.0))
+    assert np.all(np.isnan(got[:, 1]))
+    assert np.all(np.isnan(pv.shoe_pitch(pts[15:], rise[15:])[:, 0]))  # five flat frames: not calibrated

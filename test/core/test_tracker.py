@@ -139,6 +139,24 @@ def test_tracks_short_sequence_without_swaps(seq) -> None:  # noqa: ANN001
     assert x is not None and not np.any(lm.constraint_violations(x))
 
 
+def test_the_tracker_reports_the_rise_of_each_shoes_upper_which_turns_with_the_foot(seq) -> None:  # noqa: ANN001
+    """``LegPose.shoe_rise``: measured from the foreground along each reported foot (``feet.measure_shoe_rise``); a
+    rigid shoe's upper turns with its foot, so the rise plus the foot's true pitch stays the shoe's own while the
+    pitch swings by 20-35 deg over the walk (the placement calibrates it on flat frames, ``pelvis.shoe_pitch``)."""
+    tr = LegTracker(FAST, KINECT, rng=np.random.default_rng(0))
+    poses = _run(tr, seq.frames)
+    rise = np.stack([p.shoe_rise for p in poses])
+    assert rise.shape == (len(poses), 2) and np.isfinite(rise).mean() > 0.9
+    gt = np.stack([f.floor.to_walker(f.gt) for f in seq.frames])
+    d = gt[:, :, TOE] - gt[:, :, HEEL]
+    pitch = np.arctan2(d[..., 2], np.hypot(d[..., 0], d[..., 1]))
+    for side in (0, 1):
+        ok = np.isfinite(rise[:, side])
+        assert np.ptp(pitch[ok, side]) > np.radians(18.0)
+        own = rise[ok, side] + pitch[ok, side]
+        assert np.mean(np.abs(own - np.median(own)) < np.radians(5.0)) > 0.8
+
+
 @pytest.mark.parametrize("cue", ["3d", "2d"])
 def test_single_cues_run(seq, cue: str) -> None:  # noqa: ANN001
     tr = LegTracker(preset("default", n_particles=32, init_rounds=2, cue=cue), KINECT, rng=np.random.default_rng(0))

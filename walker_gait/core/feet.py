@@ -224,3 +224,78 @@ def across_only(legs: FloatArray, toes: FloatArray, sides: BoolArray) -> FloatAr
         out[side, :2] = toe[:2] + d - float(d @ u) * u
         out[side, 2] = toe[2]
     return out
+
+
+@dataclass(frozen=True, kw_only=True)
+class ShoeRiseFit:
+    """Parameters of :func:`measure_shoe_rise` (metres)."""
+
+    min_height: float = 0.03  # lowest point used: the segmentation's floor cut
+    above_toe: float = 0.14  # highest: this far above the tracked toe (the shoe's upper, below a trouser's hem)
+    behind: float = 0.14  # the stretch of the shoe measured: this far behind the tracked toe along the foot ...
+    ahead: float = 0.03  # ... to this far ahead of it
+    half_width: float = 0.06  # and this far either side of the foot's line
+    min_points: int = 15  # fewer points leave a foot unmeasured
+
+    def __post_init__(self) -> None:
+        if not (0.0 <= self.min_height and self.above_toe > 0.0 and self.behind > 0.0 and self.ahead >= 0.0
+                and self.half_width > 0.0):
+            raise ValueError(f"need min_height >= 0, above_toe > 0, behind > 0, ahead >= 0 and half_width > 0, got "
+                             f"{self.min_height}, {self.above_toe}, {self.behind}, {self.ahead}, {self.half_width}")
+        if self.min_points < 3:
+            raise ValueError(f"min_points must be >= 3, got {self.min_points}")
+
+
+def measure_shoe_rise(legs: FloatArray, points: FloatArray, *, fit: ShoeRiseFit = ShoeRiseFit()) -> FloatArray:
+    """``(2,)`` per side, the rise (rad) of the visible upper of the shoe backwards from its toe: the slope of a
+    straight line fitted (least squares) to the height of the foreground ``points`` against their position along the
+    tracked foot, over the stretch of the shoe behind its toe (:class:`ShoeRiseFit`); NaN where too few points.
+
+    ``legs`` ``(2, 5, 3)``: tracked ``LEG_POINTS`` per side and ``points`` ``(N, 3)`` foreground, in one floor-aligned
+    frame (z = height above the floor).  Seen from a camera on the walker the shoe's upper is the foot's best-seen
+    surface: it rises from the toe box to the instep at the shoe's own angle, and a rigid shoe turned heel-up by ``p``
+    rises by ``p`` more.  So the rise measured on a flat foot calibrates the shoe, and the difference measures the
+    foot's pitch in heel rise and swing (:func:`walker_gait.core.pelvis.place_poses`), which the particle filter
+    holds several degrees off (its foot is fitted to the whole leg's data).  A point nearer the other foot's
+    heel-to-toe line than this one's belongs to the other shoe."""
+    legs = np.asarray(legs, dtype=np.float64)
+    pts = np.asarray(points, dtype=np.float64)
+    if legs.shape != (2, 5, 3) or pts.ndim != 2 or pts.shape[1] != 3:
+        raise ValueError(f"need legs (2, 5, 3) and points (N, 3), got {legs.shape} and {pts.shape}")
+    rise = np.full(2, np.nan)
+    if not np.all(np.isfinite(legs[:, (HEEL, TOE)])) or pts.shape[0] < fit.min_points:
+        return rise
+    toes = legs[:, TOE]
+    reach = fit.behind + fit.half_width
+    # the band of both shoes' uppers first (most of the foreground, the shins above, is gone before the distances)
+    x, y, z = pts[:, 0], pts[:, 1], pts[:, 2]
+    lo, hi = toes[:, :2].min(axis=0) - reach, toes[:, :2].max(axis=0) + reach
+    band = pts[(z > fit.min_height) & (z < float(toes[:, 2].max()) + fit.above_toe)
+               & (x > lo[0]) & (x < hi[0]) & (y > lo[1]) & (y < hi[1])]
+    bx, by, bz = band[:, 0], band[:, 1], band[:, 2]
+    for side in (0, 1):
+        toe = toes[side]
+        u = (toe - legs[side, HEEL])[:2]
+        norm = float(np.hypot(*u))
+        if norm < 1e-6:
+            continue
+        u = u / norm
+        near = band[(bz < toe[2] + fit.above_toe) & (np.abs(bx - toe[0]) < reach) & (np.abs(by - toe[1]) < reach)]
+        if near.shape[0] < fit.min_points:
+            continue
+        rel = near[:, :2] - toe[:2]
+        s = rel @ u
+        c = rel @ np.array([-u[1], u[0]])
+        strip = (s < fit.ahead) & (s > -fit.behind) & (np.abs(c) < fit.half_width)
+        near, s = near[strip], s[strip]
+        keep = (_distance_to_segment_xy(near, legs[side, HEEL], toe)
+                < _distance_to_segment_xy(near, legs[1 - side, HEEL], toes[1 - side]))
+        if int(keep.sum()) < fit.min_points:
+            continue
+        s, h = s[keep], near[keep, 2]
+        ds = s - s.mean()
+        var = float(ds @ ds)
+        if var < 1e-8:  # a single column of points: no slope
+            continue
+        rise[side] = math.atan(-float(ds @ (h - h.mean())) / var)
+    return rise

@@ -27,6 +27,13 @@ is 1.2-1.6 cm): the placement reports each track with one length of each, the me
 its tracked foot (from the seen toe) to the shoe's length.  Live the heels stay the tracker's, which the live gait
 analyzer reads, so that its steps stay those of ``walker-gait process --passes forward``.
 
+The heel is hidden behind the shoe, so where it stands is the toe's place, the shoe's length and the foot's pitch;
+the tracker holds a foot in its heel rise or swing several degrees off its pitch (its foot is fitted to the whole
+leg's data), while the shoe's upper, the foot's best-seen surface, turns with a rigid shoe.  Offline each heel is put
+behind the toe at the pitch its shoe's upper shows (:func:`shoe_pitch`: the upper's rise,
+:func:`walker_gait.core.feet.measure_shoe_rise`, less its rise on the track's flat frames), where the upper is seen
+cleanly enough to calibrate.
+
 The hips' height is the leg lengths', which nothing in view measures either: given the user's measured leg length
 (``leg_length_m``, the hip joint centre's standing height above the floor, as gait labs record it), the thighs and
 calves are reported with it (:func:`with_leg_length`).
@@ -70,6 +77,7 @@ __all__ = [
     "place_poses",
     "pose_state",
     "segment_lengths",
+    "shoe_pitch",
     "support_sample",
     "with_leg_length",
     "with_lengths",
@@ -99,6 +107,18 @@ synthetic sessions, median per scenario), standing it stays within noise."""
 LIVE_LENGTHS_FRAMES = 1800
 """The live placement's segment lengths are the medians over at most this many of the track's last frames (a minute at
 30 Hz): a user's lengths do not change, the bound keeps the cost of a frame bounded."""
+
+SHOE_FLAT_HEIGHT_M = 0.02
+"""A reported foot whose heel and toe are both lower than this (m above the floor) stands flat: its frames calibrate
+the shoe's rise (:func:`shoe_pitch`)."""
+SHOE_FLAT_FRAMES = 10
+"""Flat frames of a foot a track needs before its shoe's rise is taken as calibrated."""
+SHOE_RISE_MAD = math.radians(0.5)
+"""Largest median absolute deviation (rad) of a shoe's rise over its flat frames for the rise to measure the foot's
+pitch: a rigid upper seen clearly gives the same rise frame after frame (0.04-0.25 deg in every track of the sweep
+sets C and B's ``normal``, ``asymmetric`` and ``occlusion`` sessions); a trouser hem over the shoe, or clutter taken
+for it, does not (``baggy_trousers`` 0.68-2.6 deg, half the tracks of a user walking in from the side over 0.6), and
+there the tracker's own pitch is kept (DEVELOPERS.md, fifty-ninth session)."""
 
 _HELD = [KNEE, ANKLE, HEEL, TOE]
 """The points of each leg a placed pelvis leaves where they were tracked."""
@@ -275,11 +295,14 @@ _BACK = np.array([-1.0, 0.0, 0.0])  # body frame: the heel behind the toe
 
 
 def with_lengths(states: FloatArray, held: FloatArray, *, thigh: float | FloatArray, calf: float | FloatArray,
-                 foot: float | FloatArray | None = None) -> tuple[FloatArray, FloatArray]:
+                 foot: float | FloatArray | None = None,
+                 foot_pitch: FloatArray | None = None) -> tuple[FloatArray, FloatArray]:
     """``states`` ``(F, 23)`` with these thigh and calf lengths (m) and ``held`` ``(F, 2, 4, 3)``
     (:func:`held_points`) with each knee moved along its tracked calf (the lower calf is in view, the knee is not) to
     the calf length; with a ``foot`` length also the states' feet of that length and each heel moved along its
-    tracked foot from the toe (seen from the front the toe is in view, the heel behind the shoe is not)."""
+    tracked foot from the toe (seen from the front the toe is in view, the heel behind the shoe is not), or, where
+    ``foot_pitch`` ``(F, 2)`` (rad, the heel-to-toe line's elevation: negative heel-up) is finite, behind the toe along
+    the tracked foot's heading at that pitch."""
     x = np.array(states, dtype=np.float64, copy=True)
     h = np.array(held, dtype=np.float64, copy=True)
     x[:, L.LEN_THIGH] = thigh
@@ -289,8 +312,43 @@ def with_lengths(states: FloatArray, held: FloatArray, *, thigh: float | FloatAr
     x = lm.clip_to_limits(x)
     h[:, :, 0] = _along(h[:, :, 1], h[:, :, 0], x[:, L.LEN_CALF], _UP)
     if foot is not None:
-        h[:, :, 2] = _along(h[:, :, 3], h[:, :, 2], x[:, L.LEN_FOOT], _BACK)
+        toward = h[:, :, 2]
+        if foot_pitch is not None:
+            pitch = np.asarray(foot_pitch, dtype=np.float64).reshape(len(x), 2)
+            back = toward[..., :2] - h[:, :, 3, :2]
+            run = np.linalg.norm(back, axis=-1, keepdims=True)
+            flat = np.where(run > 1e-9, back / np.maximum(run, 1e-9), _BACK[:2])
+            p = np.nan_to_num(pitch)[..., None]
+            aimed = h[:, :, 3] + np.concatenate([np.cos(p) * flat, -np.sin(p)], axis=-1)  # one metre behind the toe
+            toward = np.where(np.isfinite(pitch)[..., None], aimed, toward)
+        h[:, :, 2] = _along(h[:, :, 3], toward, x[:, L.LEN_FOOT], _BACK)
     return x, h
+
+
+def shoe_pitch(points: FloatArray, rise: FloatArray) -> FloatArray:
+    """``(F, 2)`` each foot's pitch (rad, the heel-to-toe line's elevation: negative heel-up) over one track's frames
+    ``points`` ``(F, 2, 5, 3)`` (body frame) from the rise of its shoe's visible upper ``rise`` ``(F, 2)``
+    (:func:`walker_gait.core.feet.measure_shoe_rise`, NaN unmeasured): the shoe's own rise is the median over the
+    frames whose reported foot stands flat (heel and toe below :data:`SHOE_FLAT_HEIGHT_M`), and a frame's pitch is
+    that less its rise (a rigid shoe turned heel-up turns its upper with it).  NaN where unmeasured, and for a foot
+    with fewer than :data:`SHOE_FLAT_FRAMES` flat frames measured or whose rise over them scatters more than
+    :data:`SHOE_RISE_MAD` (no clean upper in view: a trouser hem over the shoe).
+
+    On the synthetic sessions the pitch measured so is 1-4 deg off in heel rise and swing where the tracker's is 3-12
+    deg (``out/exp59/pitchdiag.py``, DEVELOPERS.md, fifty-ninth session)."""
+    pts = np.asarray(points, dtype=np.float64)
+    r = np.asarray(rise, dtype=np.float64).reshape(len(pts), 2)
+    out = np.full((len(pts), 2), np.nan)
+    for side in (0, 1):
+        flat = ((pts[:, side, HEEL, 2] < SHOE_FLAT_HEIGHT_M) & (pts[:, side, TOE, 2] < SHOE_FLAT_HEIGHT_M)
+                & np.isfinite(r[:, side]))
+        if int(flat.sum()) < SHOE_FLAT_FRAMES:
+            continue
+        own = float(np.median(r[flat, side]))
+        if float(np.median(np.abs(r[flat, side] - own))) > SHOE_RISE_MAD:
+            continue
+        out[:, side] = own - r[:, side]
+    return out
 
 
 def _along(start: FloatArray, end: FloatArray, length: FloatArray, fallback: FloatArray) -> FloatArray:
@@ -352,10 +410,14 @@ def place_poses(poses: Sequence[LegPose], *, mounting: str = "facing_user",
     # one length of each segment per track: a frame without one (the user gone, a search) ends it
     track = np.cumsum([p.status in (TrackStatus.NO_USER, TrackStatus.SEARCHING) for p in out])[idx]
     lengths = np.full((len(idx), 3), np.nan)
+    pitch = np.full((len(idx), 2), np.nan)
+    rise = np.stack([np.full(2, np.nan) if out[i].shoe_rise is None else np.asarray(out[i].shoe_rise, dtype=np.float64)
+                     for i in idx])
     for t in np.unique(track):
         lengths[track == t] = segment_lengths(body[track == t])
+        pitch[track == t] = shoe_pitch(body[track == t], rise[track == t])
     new, placed = _solve(body[rows], np.stack([out[idx[k]].angles for k in rows]), np.stack(targets), leg_length_m,
-                         lengths[rows])
+                         lengths[rows], pitch[rows])
     for j, k in enumerate(rows):
         i = idx[k]
         before = poses[i - 1] if i > 0 else None
@@ -447,19 +509,21 @@ def moved_pose(pose: LegPose, rot: FloatArray, t: FloatArray) -> LegPose:
 
 
 def _solve(points: FloatArray, angles: FloatArray, target: FloatArray, leg_length_m: float | None,
-           lengths: FloatArray) -> tuple[FloatArray, FloatArray]:
+           lengths: FloatArray, foot_pitch: FloatArray | None = None) -> tuple[FloatArray, FloatArray]:
     """Poses ``points`` ``(F, 2, 5, 3)`` (body frame) with joint ``angles`` ``(F, 12)`` placed at ``target`` ``(F, 3)``
     (:func:`pelvis_target`'s x, y, azimuth) with the thigh, calf and foot ``lengths`` ``(F, 3)`` of their tracks
     (:func:`segment_lengths`; NaN: as tracked, a NaN foot in any row: every heel as tracked), the thighs and calves
-    of ``leg_length_m`` instead if given: the solved states ``(F, 23)`` and the points with the solution's hips and
-    knees, the heels moved to the foot's length, the rest as given."""
+    of ``leg_length_m`` instead if given, and each heel at ``foot_pitch`` ``(F, 2)`` where finite (:func:`with_lengths`):
+    the solved states ``(F, 23)`` and the points with the solution's hips and knees, the heels moved to the foot's
+    length, the rest as given."""
     states = np.stack([pose_state(p, a) for p, a in zip(points, angles)])
     held = np.asarray(points, dtype=np.float64)[:, :, _HELD]
     lengths = np.asarray(lengths, dtype=np.float64).reshape(len(states), 3)
     tracked = states[:, [L.LEN_THIGH, L.LEN_CALF]]
     legs = np.where(np.isfinite(lengths[:, :2]), lengths[:, :2], tracked)
     foot = lengths[:, 2] if np.all(np.isfinite(lengths[:, 2])) else None
-    states, held = with_lengths(states, held, thigh=legs[:, 0], calf=legs[:, 1], foot=foot)
+    states, held = with_lengths(states, held, thigh=legs[:, 0], calf=legs[:, 1], foot=foot,
+                                foot_pitch=None if foot is None else foot_pitch)
     if leg_length_m is not None:
         states, held = with_leg_length(states, held, leg_length_m)
     new = place_pelvis(states, held, target[:, :2], yaw=target[:, 2])

@@ -362,10 +362,16 @@ def _feet_hidden(pose: LegPose, hide_below: float) -> NDArray[np.bool_]:
 
 
 def _with_leg_points(pose: LegPose, leg: int, new: FloatArray) -> LegPose:
-    """``pose`` with leg ``leg``'s ``BRIDGE_POINTS`` at ``new`` (:func:`~walker_gait.core.pelvis.with_points`)."""
+    """``pose`` with leg ``leg``'s ``BRIDGE_POINTS`` at ``new`` (:func:`~walker_gait.core.pelvis.with_points`); its
+    shoe's measured rise is gone with the tracked foot it was measured along."""
     pts = np.array(pose.points, dtype=np.float64, copy=True)
     pts[leg, np.array(BRIDGE_POINTS)] = new
-    return with_points(pose, pts)
+    out = with_points(pose, pts)
+    if out.shoe_rise is not None:
+        rise = np.array(out.shoe_rise, dtype=np.float64, copy=True)
+        rise[leg] = np.nan
+        out = dataclasses.replace(out, shoe_rise=rise)
+    return out
 
 
 def bridge_hidden_legs(poses: Sequence[LegPose], *, hide_below: float, max_gap_s: float = BRIDGE_MAX_S,

@@ -130,7 +130,7 @@ from numpy.typing import NDArray
 
 from walker_gait.core import kernels
 from walker_gait.core import leg_model as lm
-from walker_gait.core.feet import ToeFit, across_only, measure_toes, toes_in_view
+from walker_gait.core.feet import ShoeRiseFit, ToeFit, across_only, measure_shoe_rise, measure_toes, toes_in_view
 from walker_gait.core.presence import PresenceTest, legs_in_view
 from walker_gait.core.leg_model import BodyFrame, Kinematics, StateLayout
 from walker_gait.core.likelihood import (
@@ -646,6 +646,7 @@ class LegTracker:
         self._floor_clip = np.array([False, False, True] * 2)
         self._presence = config.presence_test()
         self._toe_fit = ToeFit(min_height=config.fg_min_height)
+        self._rise_fit = ShoeRiseFit(min_height=config.fg_min_height)
         self._work = Workspace()  # likelihood scratch buffers, reused across frames
         kernels.compiled()  # load the likelihood's compiled kernels now (compiled once after an install), not on frame 1
         self.reset()
@@ -1386,6 +1387,7 @@ class LegTracker:
                                    intrinsics=self.intrinsics, fit=self._toe_fit, no_depth=frame.no_depth)
             pts_body = pts_body.copy()
             pts_body[:, TOE] = across_only(pts_body, toes, ~in_view)
+        rise = measure_shoe_rise(pts_body, frame.fg_all_body, fit=self._rise_fit)
         pose = LegPose(
             stamp=stamp,
             points=frame.body.to_camera(pts_body),
@@ -1396,6 +1398,7 @@ class LegTracker:
             status=self.status,
             confidence=conf,
             ess=effective_sample_size(self._logw),
+            shoe_rise=rise,
         )
         return pose, conf, explained, unsupported
 

@@ -230,6 +230,7 @@ class LegPose:
     status: TrackStatus = TrackStatus.TRACKING
     confidence: float = 1.0  # 0..1
     ess: float = float("nan")  # effective sample size of the particle set
+    shoe_rise: FloatArray | None = None  # (2,) [side] rad, rise of the visible shoe upper behind the toe (feet.measure_shoe_rise), NaN unmeasured
 
     @classmethod
     def no_user(cls, stamp: float) -> LegPose:
