@@ -155,6 +155,10 @@ def test_the_tracker_reports_the_rise_of_each_shoes_upper_which_turns_with_the_f
         assert np.ptp(pitch[ok, side]) > np.radians(18.0)
         own = rise[ok, side] + pitch[ok, side]
         assert np.mean(np.abs(own - np.median(own)) < np.radians(5.0)) > 0.8
+    # a report only: a tracker that does not measure it (the live node) tracks exactly the same
+    quiet = _run(LegTracker(FAST, KINECT, rng=np.random.default_rng(0), shoe_rise=False), seq.frames)
+    assert all(q.shoe_rise is None for q in quiet)
+    np.testing.assert_array_equal(np.stack([q.points for q in quiet]), np.stack([p.points for p in poses]))
 
 
 @pytest.mark.parametrize("cue", ["3d", "2d"])

@@ -607,7 +607,9 @@ class LegTracker:
 
     ``rng`` drives every random choice, so a seeded Generator makes the tracker deterministic.  ``time_reversed``:
     the frames come backwards in time (stamps negated, :func:`walker_gait.core.smoothing.track_pass`); only the
-    footprints' test of a swinging foot reads the direction (``footprint_sigma``).
+    footprints' test of a swinging foot reads the direction (``footprint_sigma``).  ``shoe_rise``: each pose reports
+    the rise of its shoes' uppers (:func:`walker_gait.core.feet.measure_shoe_rise`, 1-2 ms a frame), which the offline
+    placement turns into the heels' pitch; false (the live node, whose placement keeps the tracker's heels): None.
     """
 
     def __init__(
@@ -618,6 +620,7 @@ class LegTracker:
         rng: np.random.Generator,
         mounting: str = "facing_user",
         time_reversed: bool = False,
+        shoe_rise: bool = True,
     ) -> None:
         if mounting not in ("facing_user", "facing_forward"):
             raise ValueError(f"mounting must be 'facing_user' or 'facing_forward', got {mounting!r}")
@@ -629,6 +632,7 @@ class LegTracker:
         self._redetect_rng = _child_generator(rng)
         self.mounting = mounting
         self.time_reversed = time_reversed  # fed a recording backwards (stamps negated): the walker backs away
+        self.shoe_rise = shoe_rise
         self._noise = config.noise_vector()
         self._angle_mask = StateLayout.angle_mask()
         self._p3 = Cue3DParams(
@@ -1387,7 +1391,7 @@ class LegTracker:
                                    intrinsics=self.intrinsics, fit=self._toe_fit, no_depth=frame.no_depth)
             pts_body = pts_body.copy()
             pts_body[:, TOE] = across_only(pts_body, toes, ~in_view)
-        rise = measure_shoe_rise(pts_body, frame.fg_all_body, fit=self._rise_fit)
+        rise = measure_shoe_rise(pts_body, frame.fg_all_body, fit=self._rise_fit) if self.shoe_rise else None
         pose = LegPose(
             stamp=stamp,
             points=frame.body.to_camera(pts_body),
