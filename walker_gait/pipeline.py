@@ -444,10 +444,11 @@ class FrameProcessor:
             raise StampOrderError(msg)
         self._last_stamp = frame.stamp
         if self.tracker is None or frame.intrinsics != self._tracker_intrinsics:
-            # the shoes' rise is read only by the two-pass placement's heels (one pass places as live: as tracked)
+            # the shoes' rise and turn are read only by the two-pass placement's heels (one pass places as live: as
+            # tracked)
             self.tracker = LegTracker(self.options.tracker, frame.intrinsics,
                                       rng=stage_rng(self.options.seed, "leg_tracker"), mounting=self.options.mounting,
-                                      shoe_rise=self._two_way)
+                                      measure_shoes=self._two_way)
             self._tracker_intrinsics = frame.intrinsics
             if self._pelvis is not None:
                 self._pelvis.reset()

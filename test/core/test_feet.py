@@ -7,7 +7,16 @@ import math
 import numpy as np
 import pytest
 
-from walker_gait.core.feet import ShoeRiseFit, ToeFit, across_only, measure_shoe_rise, measure_toes, toes_in_view
+from walker_gait.core.feet import (
+    ShoeRiseFit,
+    ShoeTurnFit,
+    ToeFit,
+    across_only,
+    measure_shoe_rise,
+    measure_shoe_turn,
+    measure_toes,
+    toes_in_view,
+)
 from walker_gait.core.types import ANKLE, HEEL, TOE, CameraIntrinsics
 
 CAMERA = np.array([1.0, 0.0, 0.45])  # body frame: the walker's camera ahead of the user, 45 cm up
@@ -319,3 +328,47 @@ def test_a_shoe_without_enough_upper_in_view_is_not_measured() -> None:
         measure_shoe_rise(np.zeros((2, 4, 3)), few)
     with pytest.raises(ValueError, match="min_points"):
         ShoeRiseFit(min_points=2)
+
+
+def _upper_grid(toe: np.ndarray, heading: float, rng: np.random.Generator) -> np.ndarray:
+    """:func:`_upper`'s shoe flat, its points on a regular grid as a depth image's pixels are (4-5 mm apart)."""
+    s, w = (a.ravel() for a in np.meshgrid(np.arange(0.0, 0.16, 0.004), np.arange(-0.045, 0.0451, 0.005)))
+    h = 0.03 + 0.07 * s / 0.16 + rng.normal(0.0, 0.001, s.size)
+    c, si = np.cos(heading), np.sin(heading)
+    return np.column_stack([toe[0] - s * c - w * si, toe[1] - s * si + w * c, h])
+
+
+def test_a_shoe_measures_how_far_the_tracked_foot_is_turned_from_it() -> None:
+    """The turn is the flat shoe's heading less the tracked foot's, whichever way the tracked foot is turned or moved
+    across (within the stretch), and the other shoe beside it is not taken for this one.  One line alone is pulled
+    towards the tracked foot (it reads part of the turned shoe's width as along the foot); a second one, fitted around
+    the foot turned to the first, comes nearer."""
+    rng = np.random.default_rng(9)
+    toes = np.array([[0.30, 0.08, 0.0], [0.25, -0.05, 0.0]])
+    true_heading = np.array([0.12, -0.05])
+    pts = np.vstack([_upper_grid(toes[0], true_heading[0], rng), _upper_grid(toes[1], true_heading[1], rng)])
+    for err_deg in (-6.0, -2.0, 0.0, 3.0, 6.0):
+        tracked = true_heading + np.radians([err_deg, -err_deg])
+        tracked_toes = toes + np.array([[0.0, 0.01, 0.0], [0.005, -0.01, 0.0]])  # the line a centimetre off
+        heels = tracked_toes - 0.26 * np.column_stack([np.cos(tracked), np.sin(tracked), np.zeros(2)])
+        got = measure_shoe_turn(_legs(heels, tracked_toes), pts)
+        np.testing.assert_allclose(np.degrees(got), [-err_deg, err_deg], atol=0.5 + 0.15 * abs(err_deg))
+        if abs(err_deg) > 5.0:  # two lines come nearer than one
+            one = measure_shoe_turn(_legs(heels, tracked_toes), pts, fit=ShoeTurnFit(fits=1))
+            assert np.all(np.abs(np.degrees(one) - [-err_deg, err_deg]) > np.abs(np.degrees(got) - [-err_deg, err_deg]) + 0.5)
+
+
+def test_a_shoe_without_enough_in_view_is_not_turned() -> None:
+    rng = np.random.default_rng(10)
+    toes = np.array([[0.30, 0.08, 0.0], [0.05, -0.08, 0.0]])
+    heels = toes - np.array([0.26, 0.0, 0.0])
+    assert np.all(np.isnan(measure_shoe_turn(_legs(heels, toes), _upper(toes[0], 0.0, 0.0, rng, n=10))))
+    # a single column of points along the foot's line has no width to find its centre line with, but a line
+    column = np.column_stack([np.full(40, 0.25), np.full(40, 0.08), np.linspace(0.04, 0.1, 40)])
+    assert np.isnan(measure_shoe_turn(_legs(heels, toes), column)[0])
+    with pytest.raises(ValueError, match="legs"):
+        measure_shoe_turn(np.zeros((2, 4, 3)), column)
+    with pytest.raises(ValueError, match="half_width"):
+        ShoeTurnFit(half_width=0.0)
+    with pytest.raises(ValueError, match="fits"):
+        ShoeTurnFit(fits=0)

@@ -490,3 +490,73 @@ def test_shoe_pitch_is_the_rise_less_the_flat_shoes() -> None:
     np.testing.assert_allclose(got[20:, 0], -np.radians(18.0))
     assert np.all(np.isnan(got[:, 1]))
     assert np.all(np.isnan(pv.shoe_pitch(pts[15:], rise[15:])[:, 0]))  # five flat frames: not calibrated
+
+
+def _heading(points: np.ndarray) -> np.ndarray:
+    d = points[..., TOE, :2] - points[..., HEEL, :2]
+    return np.arctan2(d[..., 1], d[..., 0])
+
+
+def test_a_flat_foot_is_reported_along_the_heading_its_shoe_shows() -> None:
+    """The tracker holds a standing foot several degrees off its heading (its yaw is the end of the leg's chain);
+    the shoe's centre line measures the turn: a flat foot is reported with its heel behind the seen toe along the
+    heading the line shows, the track's foot length from it, at its height; the other foot, the toes and ankles stay.
+    A line that sways from frame to frame (a trouser hem over the shoe), a foot off the floor or too few flat frames
+    leave the heels as tracked."""
+    rng = np.random.default_rng(6)
+    n, turned = 40, 7.0
+    true = _state([0, 2, 0, 5, 5, 0, 0, 2, 0, 5, 5, 0])
+    x = _state([0, 2, turned, 5, 5, 0, 0, 2, 0, 5, 5, 0])  # the left hip turned: the left foot 7 deg off
+    tracked = [LegPose(stamp=i / 30.0, points=lm.forward_kinematics(x).points[0] @ FLIP, angles=lm.joint_angles(x),
+                       segments=np.zeros((2, 3, 2, 3))) for i in range(n)]
+    body = tracked[0].points @ FLIP
+    want_heading = _heading(lm.forward_kinematics(true).points[0])[0]
+    assert abs(np.degrees(want_heading - _heading(body)[0])) > 5.0
+    assert np.all(body[:, [HEEL, TOE], 2] < pv.SHOE_FLAT_HEIGHT_M)
+    turn = np.column_stack([np.full(n, want_heading - _heading(body)[0]), np.zeros(n)])
+    turn = turn + rng.normal(0.0, np.radians(0.2), (n, 2))
+    measured = [dataclasses.replace(p, shoe_turn=t) for p, t in zip(tracked, turn)]
+    plain = np.stack([p.points for p in pv.place_poses(tracked)]) @ FLIP
+    after = np.stack([p.points for p in pv.place_poses(measured)]) @ FLIP
+    heel, toe = after[:, 0, HEEL], after[:, 0, TOE]
+    assert np.all(np.abs(np.degrees(_heading(after)[:, 0] - want_heading)) < 0.6)
+    np.testing.assert_allclose(np.linalg.norm(toe - heel, axis=-1), np.linalg.norm(body[0, TOE] - body[0, HEEL]),
+                               atol=1e-6)
+    np.testing.assert_allclose(heel[:, 2], plain[:, 0, HEEL, 2], atol=1e-3)
+    assert np.abs(plain[:, 0, HEEL, :2] - heel[:, :2]).max() > 0.02  # as tracked: 3 cm to the side
+    np.testing.assert_array_equal(after[..., [ANKLE, TOE], :], plain[..., [ANKLE, TOE], :])
+    assert np.abs(after[:, 1, HEEL] - plain[:, 1, HEEL]).max() < 0.002  # the right foot: as before
+    # a swaying line; a foot off the floor; five flat frames: as tracked
+    swaying = [dataclasses.replace(p, shoe_turn=t + rng.normal(0.0, np.radians(5.0), 2)) for p, t in zip(tracked, turn)]
+    np.testing.assert_allclose(np.stack([q.points for q in pv.place_poses(swaying)]) @ FLIP, plain, atol=1e-12)
+    raised = [dataclasses.replace(p, points=p.points + np.array([0.0, 0.0, 0.03])) for p in measured]
+    np.testing.assert_allclose(np.stack([q.points for q in pv.place_poses(raised)]),
+                               np.stack([q.points for q in pv.place_poses(tracked)]) + np.array([0.0, 0.0, 0.03]),
+                               atol=1e-9)
+    short = np.stack([q.points for q in pv.place_poses(measured[:5])]) @ FLIP
+    np.testing.assert_allclose(short, np.stack([q.points for q in pv.place_poses(tracked[:5])]) @ FLIP, atol=1e-12)
+
+
+def test_shoe_heading_is_the_reported_heading_turned_on_flat_frames() -> None:
+    """:func:`shoe_heading` per foot: the reported heading plus the measured turn on the flat frames, carried forward
+    into the heel rise and back into the frames after the heel strike; NaN for a foot in the air, a foot without enough
+    flat frames and one whose measured heading jumps from frame to frame."""
+    n = 40
+    pts = np.zeros((n, 2, 5, 3))
+    pts[:, :, TOE, 0] = 0.26
+    pts[:, 1, TOE, 1] = 0.26 * np.tan(np.radians(np.linspace(-4.0, 4.0, n)))  # the right foot's heading wanders
+    pts[15:20, 0, HEEL, 2] = 0.05  # the left heel rises, then the foot swings ...
+    pts[20:25, 0, [HEEL, TOE], 2] = 0.08
+    pts[25:28, 0, TOE, 2] = 0.05  # ... and lands on its heel
+    turn = np.full((n, 2), np.radians(3.0))
+    turn[28:, 0] = np.radians(5.0)  # planted 2 deg further out
+    turn[:, 1] = -np.arctan2(pts[:, 1, TOE, 1], 0.26) + np.radians(2.0)  # ... which the line takes back: 2 deg
+    turn[7, 0] = np.nan
+    got = pv.shoe_heading(pts, turn)
+    np.testing.assert_allclose(got[:20, 0], np.radians(3.0))  # the unmeasured frame 7 and the heel rise carried
+    assert np.all(np.isnan(got[20:25, 0]))
+    np.testing.assert_allclose(got[25:, 0], np.radians(5.0))
+    np.testing.assert_allclose(got[:, 1], np.radians(2.0), atol=1e-12)
+    assert np.all(np.isnan(pv.shoe_heading(pts[31:], turn[31:])[:, 0]))  # nine flat frames measured: too few
+    jumpy = turn + np.radians(np.where(np.arange(n) % 2, 2.5, -2.5))[:, None]
+    assert np.all(np.isnan(pv.shoe_heading(pts, jumpy)))

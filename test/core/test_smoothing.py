@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import dataclasses
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -151,6 +150,12 @@ def test_poses_whose_feet_agree_are_averaged_and_others_kept_apart() -> None:
     np.testing.assert_allclose(m.visibility, 0.75)
     assert m.status == TrackStatus.TRACKING and m.confidence == 1.0  # the chosen pose's
     assert blend_poses([a, b], 1).status == TrackStatus.DEGRADED
+    # the shoes' turns, each from its own pass's foot, are averaged with the feet; the rise is the chosen pose's
+    ta = replace(a, shoe_turn=np.array([0.02, -0.01]), shoe_rise=np.array([0.3, 0.3]))
+    tb = replace(b, shoe_turn=np.array([0.06, 0.01]), shoe_rise=np.array([0.4, 0.4]))
+    mt = blend_poses([ta, tb], 0)
+    np.testing.assert_allclose(mt.shoe_turn, [0.04, 0.0])
+    np.testing.assert_array_equal(mt.shoe_rise, ta.shoe_rise)
     # 7 cm apart: half way to the cut-off, the other pose weighs 0.5 against the chosen one's 1
     c = _full_pose(0.07)
     np.testing.assert_allclose(blend_poses([a, c], 0).points[..., 0], 0.07 / 3)
@@ -244,6 +249,13 @@ def test_a_hidden_foot_is_bridged_between_where_it_was_last_seen_and_where_it_is
         assert np.allclose(o.segments[1, 2], o.points[1, 3:5])
     assert out[20].visibility is poses[20].visibility and out[20].status == TrackStatus.TRACKING
     assert BRIDGE_POINTS == (1, 2, 3, 4)
+    # the shoe measures of a bridged foot are gone with the tracked foot they were measured along; the other's stay
+    measured = [replace(p, shoe_rise=np.array([0.3, 0.3]), shoe_turn=np.array([0.05, 0.05]))
+                for p in poses]
+    out = bridge_hidden_legs(measured, hide_below=0.25)
+    for o in out[gap]:
+        assert np.isnan(o.shoe_rise[1]) and np.isnan(o.shoe_turn[1])
+        assert o.shoe_rise[0] == 0.3 and o.shoe_turn[0] == 0.05
 
 
 def test_a_foot_moving_steadily_is_bridged_exactly() -> None:
@@ -493,9 +505,9 @@ def test_a_backward_pass_sees_increasing_stamps_and_returns_poses_in_recording_o
     floor = FloorPlane.from_camera_pose(height=0.7, pitch=0.5)
     frames = [_Frame(stamp=0.5 + i / 30, points=np.full((1, 3), float(i)), depth_fg=np.zeros((1, 1)), floor=floor)
               for i in range(6)]
-    other = dataclasses.replace(KINECT, fx=KINECT.fx * 1.1)
-    frames[4] = dataclasses.replace(frames[4], intrinsics=other)  # a new calibration from frame 4 on
-    frames[5] = dataclasses.replace(frames[5], intrinsics=other)
+    other = replace(KINECT, fx=KINECT.fx * 1.1)
+    frames[4] = replace(frames[4], intrinsics=other)  # a new calibration from frame 4 on
+    frames[5] = replace(frames[5], intrinsics=other)
     made: list[_Recorder] = []
 
     def make(frame: _Frame) -> _Recorder:
@@ -542,7 +554,7 @@ def test_the_tracker_scores_a_fitting_state_above_one_moved_off_the_data(seq) ->
     np.testing.assert_array_equal(s, s2)
     assert scorer.rng.bit_generator.state == before
     # without a floor there is nothing to score against
-    bad = dataclasses.replace(f, floor=dataclasses.replace(f.floor, valid=False))
+    bad = replace(f, floor=replace(f.floor, valid=False))
     assert np.all(score_passes(scorer, bad, [x, off], rng=np.random.default_rng(1)) == -np.inf)
 
 

@@ -155,9 +155,13 @@ def test_the_tracker_reports_the_rise_of_each_shoes_upper_which_turns_with_the_f
         assert np.ptp(pitch[ok, side]) > np.radians(18.0)
         own = rise[ok, side] + pitch[ok, side]
         assert np.mean(np.abs(own - np.median(own)) < np.radians(5.0)) > 0.8
-    # a report only: a tracker that does not measure it (the live node) tracks exactly the same
-    quiet = _run(LegTracker(FAST, KINECT, rng=np.random.default_rng(0), shoe_rise=False), seq.frames)
-    assert all(q.shoe_rise is None for q in quiet)
+    # the turn of each shoe's centre line from the reported foot (``feet.measure_shoe_turn``) is reported alongside
+    # (the own-model feet are never flat, where the placement reads it: ``test_pelvis``, ``test_feet``)
+    turn = np.stack([p.shoe_turn for p in poses])
+    assert turn.shape == (len(poses), 2) and np.isfinite(turn).mean() > 0.9
+    # a report only: a tracker that does not measure them (the live node) tracks exactly the same
+    quiet = _run(LegTracker(FAST, KINECT, rng=np.random.default_rng(0), measure_shoes=False), seq.frames)
+    assert all(q.shoe_rise is None and q.shoe_turn is None for q in quiet)
     np.testing.assert_array_equal(np.stack([q.points for q in quiet]), np.stack([p.points for p in poses]))
 
 

@@ -246,6 +246,66 @@ class ShoeRiseFit:
             raise ValueError(f"min_points must be >= 3, got {self.min_points}")
 
 
+def _shoe_band(legs: FloatArray, pts: FloatArray, *, min_height: float, above_toe: float, reach: float) -> FloatArray:
+    """The foreground ``pts`` that can be on either shoe's upper: between ``min_height`` and ``above_toe`` over the
+    higher toe, within ``reach`` of the toes in x and y (most of the foreground, the shins above, is gone before the
+    distances)."""
+    toes = legs[:, TOE]
+    x, y, z = pts[:, 0], pts[:, 1], pts[:, 2]
+    lo, hi = toes[:, :2].min(axis=0) - reach, toes[:, :2].max(axis=0) + reach
+    return pts[(z > min_height) & (z < float(toes[:, 2].max()) + above_toe)
+               & (x > lo[0]) & (x < hi[0]) & (y > lo[1]) & (y < hi[1])]
+
+
+def _shoe_strips(legs: FloatArray, band: FloatArray, *, above_toe: float, behind: float, ahead: float,
+                 half_width: float, min_points: int) -> list[tuple[FloatArray, FloatArray, FloatArray] | None]:
+    """Per side, the points of ``band`` (:func:`_shoe_band`) on the stretch of the shoe behind its tracked toe: their
+    position along the tracked foot and across it (metres from the toe, the foot's left positive) and their height, or
+    None where fewer than ``min_points``: up to ``above_toe`` over the toe, from ``behind`` the toe to ``ahead`` of it
+    along the foot, within ``half_width`` of its line, and nearer this foot's heel-to-toe line than the other's (the
+    other shoe)."""
+    out: list[tuple[FloatArray, FloatArray, FloatArray] | None] = [None, None]
+    toes = legs[:, TOE]
+    reach = behind + half_width
+    bx, by, bz = band[:, 0], band[:, 1], band[:, 2]
+    for side in (0, 1):
+        toe = toes[side]
+        u = (toe - legs[side, HEEL])[:2]
+        norm = float(np.hypot(*u))
+        if norm < 1e-6:
+            continue
+        u = u / norm
+        near = band[(bz < toe[2] + above_toe) & (np.abs(bx - toe[0]) < reach) & (np.abs(by - toe[1]) < reach)]
+        if near.shape[0] < min_points:
+            continue
+        rel = near[:, :2] - toe[:2]
+        s = rel @ u
+        c = rel @ np.array([-u[1], u[0]])
+        strip = (s < ahead) & (s > -behind) & (np.abs(c) < half_width)
+        near, s, c = near[strip], s[strip], c[strip]
+        keep = (_distance_to_segment_xy(near, legs[side, HEEL], toe)
+                < _distance_to_segment_xy(near, legs[1 - side, HEEL], toes[1 - side]))
+        if int(keep.sum()) < min_points:
+            continue
+        out[side] = (s[keep], c[keep], near[keep, 2])
+    return out
+
+
+def _slope(x: FloatArray, y: FloatArray) -> float:
+    """The least-squares slope of ``y`` against ``x``; NaN where ``x`` does not spread (a single column of points)."""
+    dx = x - x.mean()
+    var = float(dx @ dx)
+    return float(dx @ (y - y.mean())) / var if var >= 1e-8 else math.nan
+
+
+def _checked(legs: FloatArray, points: FloatArray) -> tuple[FloatArray, FloatArray]:
+    legs = np.asarray(legs, dtype=np.float64)
+    pts = np.asarray(points, dtype=np.float64)
+    if legs.shape != (2, 5, 3) or pts.ndim != 2 or pts.shape[1] != 3:
+        raise ValueError(f"need legs (2, 5, 3) and points (N, 3), got {legs.shape} and {pts.shape}")
+    return legs, pts
+
+
 def measure_shoe_rise(legs: FloatArray, points: FloatArray, *, fit: ShoeRiseFit = ShoeRiseFit()) -> FloatArray:
     """``(2,)`` per side, the rise (rad) of the visible upper of the shoe backwards from its toe: the slope of a
     straight line fitted (least squares) to the height of the foreground ``points`` against their position along the
@@ -258,44 +318,79 @@ def measure_shoe_rise(legs: FloatArray, points: FloatArray, *, fit: ShoeRiseFit 
     foot's pitch in heel rise and swing (:func:`walker_gait.core.pelvis.place_poses`), which the particle filter
     holds several degrees off (its foot is fitted to the whole leg's data).  A point nearer the other foot's
     heel-to-toe line than this one's belongs to the other shoe."""
-    legs = np.asarray(legs, dtype=np.float64)
-    pts = np.asarray(points, dtype=np.float64)
-    if legs.shape != (2, 5, 3) or pts.ndim != 2 or pts.shape[1] != 3:
-        raise ValueError(f"need legs (2, 5, 3) and points (N, 3), got {legs.shape} and {pts.shape}")
+    legs, pts = _checked(legs, points)
     rise = np.full(2, np.nan)
     if not np.all(np.isfinite(legs[:, (HEEL, TOE)])) or pts.shape[0] < fit.min_points:
         return rise
-    toes = legs[:, TOE]
-    reach = fit.behind + fit.half_width
-    # the band of both shoes' uppers first (most of the foreground, the shins above, is gone before the distances)
-    x, y, z = pts[:, 0], pts[:, 1], pts[:, 2]
-    lo, hi = toes[:, :2].min(axis=0) - reach, toes[:, :2].max(axis=0) + reach
-    band = pts[(z > fit.min_height) & (z < float(toes[:, 2].max()) + fit.above_toe)
-               & (x > lo[0]) & (x < hi[0]) & (y > lo[1]) & (y < hi[1])]
-    bx, by, bz = band[:, 0], band[:, 1], band[:, 2]
-    for side in (0, 1):
-        toe = toes[side]
-        u = (toe - legs[side, HEEL])[:2]
-        norm = float(np.hypot(*u))
-        if norm < 1e-6:
-            continue
-        u = u / norm
-        near = band[(bz < toe[2] + fit.above_toe) & (np.abs(bx - toe[0]) < reach) & (np.abs(by - toe[1]) < reach)]
-        if near.shape[0] < fit.min_points:
-            continue
-        rel = near[:, :2] - toe[:2]
-        s = rel @ u
-        c = rel @ np.array([-u[1], u[0]])
-        strip = (s < fit.ahead) & (s > -fit.behind) & (np.abs(c) < fit.half_width)
-        near, s = near[strip], s[strip]
-        keep = (_distance_to_segment_xy(near, legs[side, HEEL], toe)
-                < _distance_to_segment_xy(near, legs[1 - side, HEEL], toes[1 - side]))
-        if int(keep.sum()) < fit.min_points:
-            continue
-        s, h = s[keep], near[keep, 2]
-        ds = s - s.mean()
-        var = float(ds @ ds)
-        if var < 1e-8:  # a single column of points: no slope
-            continue
-        rise[side] = math.atan(-float(ds @ (h - h.mean())) / var)
+    band = _shoe_band(legs, pts, min_height=fit.min_height, above_toe=fit.above_toe, reach=fit.behind + fit.half_width)
+    strips = _shoe_strips(legs, band, above_toe=fit.above_toe, behind=fit.behind, ahead=fit.ahead,
+                          half_width=fit.half_width, min_points=fit.min_points)
+    for side, strip in enumerate(strips):
+        if strip is not None:
+            rise[side] = math.atan(-_slope(strip[0], strip[2]))
     return rise
+
+
+@dataclass(frozen=True, kw_only=True)
+class ShoeTurnFit:
+    """Parameters of :func:`measure_shoe_turn` (metres): a wider stretch than the rise's, the whole shoe's width
+    (a shoe is about 10 cm wide) around a tracked line a few centimetres off it."""
+
+    min_height: float = 0.03  # lowest point used: the segmentation's floor cut
+    above_toe: float = 0.14  # highest: this far above the tracked toe
+    behind: float = 0.16  # the stretch of the shoe measured: this far behind the tracked toe along the foot ...
+    ahead: float = 0.03  # ... to this far ahead of it
+    half_width: float = 0.08  # and this far either side of the foot's line
+    min_points: int = 15  # fewer points leave a foot unmeasured
+    fits: int = 2  # lines fitted, each around the foot turned to the one before: a line fitted across-against-along
+    # reads part of the shoe's width, turned with it, as along the tracked foot, which pulls it towards the tracked
+    # heading by the ratio of the spreads across and along (a third for a 9 cm x 16 cm upper), less so each fit
+
+    def __post_init__(self) -> None:
+        if not (0.0 <= self.min_height and self.above_toe > 0.0 and self.behind > 0.0 and self.ahead >= 0.0
+                and self.half_width > 0.0):
+            raise ValueError(f"need min_height >= 0, above_toe > 0, behind > 0, ahead >= 0 and half_width > 0, got "
+                             f"{self.min_height}, {self.above_toe}, {self.behind}, {self.ahead}, {self.half_width}")
+        if self.min_points < 3:
+            raise ValueError(f"min_points must be >= 3, got {self.min_points}")
+        if self.fits < 1:
+            raise ValueError(f"fits must be >= 1, got {self.fits}")
+
+
+def measure_shoe_turn(legs: FloatArray, points: FloatArray, *, fit: ShoeTurnFit = ShoeTurnFit()) -> FloatArray:
+    """``(2,)`` per side, how far (rad, anticlockwise seen from above: towards the foot's left) the shoe's centre line
+    is turned from the tracked foot's heading: the angle of a straight line fitted (least squares) to the foreground
+    ``points``' position across the tracked foot against their position along it, over the stretch of the shoe behind
+    its toe (:class:`ShoeTurnFit`); NaN where too few points.  Frames as :func:`measure_shoe_rise`'s.
+
+    A shoe is about as wide on either side of its centre line, so the points of its upper lie about that line; the
+    particle filter holds a foot's heading several degrees off (the foot's yaw is the end of the leg's chain, fitted
+    to the whole leg's data).  Flat on the floor the measured line is within a degree of the true heading on the
+    synthetic sessions where the tracker's is 2-6 deg off (DEVELOPERS.md, sixtieth session); a trouser hem over the
+    shoe turns it anywhere, which the placement tells by how it jumps from frame to frame
+    (:func:`walker_gait.core.pelvis.shoe_heading`)."""
+    legs, pts = _checked(legs, points)
+    turn = np.full(2, np.nan)
+    if not np.all(np.isfinite(legs[:, (HEEL, TOE)])) or pts.shape[0] < fit.min_points:
+        return turn
+    band = _shoe_band(legs, pts, min_height=fit.min_height, above_toe=fit.above_toe, reach=fit.behind + fit.half_width)
+    legs = legs.copy()
+    done = np.zeros(2)
+    for _ in range(fit.fits):
+        strips = _shoe_strips(legs, band, above_toe=fit.above_toe, behind=fit.behind, ahead=fit.ahead,
+                              half_width=fit.half_width, min_points=fit.min_points)
+        for side, strip in enumerate(strips):
+            if strip is None:
+                done[side] = math.nan
+                continue
+            step = math.atan(_slope(strip[0], strip[1]))
+            done[side] += step
+            if math.isfinite(step):  # the foot turned about its toe to the line found, for the next fit
+                c, s_ = math.cos(step), math.sin(step)
+                back = legs[side, HEEL, :2] - legs[side, TOE, :2]
+                legs[side, HEEL, :2] = legs[side, TOE, :2] + np.array([c * back[0] - s_ * back[1],
+                                                                        s_ * back[0] + c * back[1]])
+        if not np.any(np.isfinite(done)):
+            break
+    turn[:] = done
+    return turn

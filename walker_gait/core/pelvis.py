@@ -64,6 +64,11 @@ __all__ = [
     "LEG_LENGTH_RANGE_M",
     "LivePelvis",
     "PLACE_WINDOW_S",
+    "SHOE_CARRY_FRAMES",
+    "SHOE_FLAT_FRAMES",
+    "SHOE_FLAT_HEIGHT_M",
+    "SHOE_RISE_MAD",
+    "SHOE_TURN_JUMP",
     "STAND_LEAN_M",
     "THIGH_SHARE",
     "WALK_LEAN_M",
@@ -77,6 +82,7 @@ __all__ = [
     "place_poses",
     "pose_state",
     "segment_lengths",
+    "shoe_heading",
     "shoe_pitch",
     "support_sample",
     "with_leg_length",
@@ -119,6 +125,16 @@ pitch: a rigid upper seen clearly gives the same rise frame after frame (0.04-0.
 sets C and B's ``normal``, ``asymmetric`` and ``occlusion`` sessions); a trouser hem over the shoe, or clutter taken
 for it, does not (``baggy_trousers`` 0.68-2.6 deg, half the tracks of a user walking in from the side over 0.6), and
 there the tracker's own pitch is kept (DEVELOPERS.md, fifty-ninth session)."""
+
+SHOE_CARRY_FRAMES = 5
+"""A foot's heading measured flat is carried into the frames of its heel rise (the foot pivots about its toes) and
+back into those after its heel strike (it pivots about its heel) as the mean of this many flat frames next to them
+(:func:`shoe_heading`)."""
+SHOE_TURN_JUMP = math.radians(2.0)
+"""Largest median change (rad) of a shoe's measured heading from one flat frame to the next for its centre line to
+be taken as the foot's heading (:func:`shoe_heading`): a planted foot does not turn, and a shoe seen clearly gives
+the same line frame after frame (median 0.15-0.75 deg on the sweep set C's clean sessions); a trouser hem over the
+shoe sways (4.3-5.4 deg under baggy trousers).  DEVELOPERS.md, sixtieth session."""
 
 _HELD = [KNEE, ANKLE, HEEL, TOE]
 """The points of each leg a placed pelvis leaves where they were tracked."""
@@ -296,13 +312,16 @@ _BACK = np.array([-1.0, 0.0, 0.0])  # body frame: the heel behind the toe
 
 def with_lengths(states: FloatArray, held: FloatArray, *, thigh: float | FloatArray, calf: float | FloatArray,
                  foot: float | FloatArray | None = None,
-                 foot_pitch: FloatArray | None = None) -> tuple[FloatArray, FloatArray]:
+                 foot_pitch: FloatArray | None = None,
+                 foot_heading: FloatArray | None = None) -> tuple[FloatArray, FloatArray]:
     """``states`` ``(F, 23)`` with these thigh and calf lengths (m) and ``held`` ``(F, 2, 4, 3)``
     (:func:`held_points`) with each knee moved along its tracked calf (the lower calf is in view, the knee is not) to
     the calf length; with a ``foot`` length also the states' feet of that length and each heel moved along its
     tracked foot from the toe (seen from the front the toe is in view, the heel behind the shoe is not), or, where
     ``foot_pitch`` ``(F, 2)`` (rad, the heel-to-toe line's elevation: negative heel-up) is finite, behind the toe along
-    the tracked foot's heading at that pitch."""
+    the tracked foot's heading at that pitch; where ``foot_heading`` ``(F, 2)`` (rad, the heel-to-toe line's azimuth
+    in the floor's plane) is finite, behind the toe along that heading (at the pitch given, else the tracked
+    foot's)."""
     x = np.array(states, dtype=np.float64, copy=True)
     h = np.array(held, dtype=np.float64, copy=True)
     x[:, L.LEN_THIGH] = thigh
@@ -313,6 +332,13 @@ def with_lengths(states: FloatArray, held: FloatArray, *, thigh: float | FloatAr
     h[:, :, 0] = _along(h[:, :, 1], h[:, :, 0], x[:, L.LEN_CALF], _UP)
     if foot is not None:
         toward = h[:, :, 2]
+        if foot_heading is not None:
+            heading = np.asarray(foot_heading, dtype=np.float64).reshape(len(x), 2)
+            back = toward - h[:, :, 3]
+            run = np.linalg.norm(back[..., :2], axis=-1)
+            a = np.nan_to_num(heading)
+            turned = h[:, :, 3] + np.stack([-np.cos(a) * run, -np.sin(a) * run, back[..., 2]], axis=-1)
+            toward = np.where(np.isfinite(heading)[..., None], turned, toward)
         if foot_pitch is not None:
             pitch = np.asarray(foot_pitch, dtype=np.float64).reshape(len(x), 2)
             back = toward[..., :2] - h[:, :, 3, :2]
@@ -348,6 +374,64 @@ def shoe_pitch(points: FloatArray, rise: FloatArray) -> FloatArray:
         if float(np.median(np.abs(r[flat, side] - own))) > SHOE_RISE_MAD:
             continue
         out[:, side] = own - r[:, side]
+    return out
+
+
+def _wrap(a: FloatArray) -> FloatArray:
+    return np.angle(np.exp(1j * np.asarray(a, dtype=np.float64)))
+
+
+def _runs(mask: NDArray[np.bool_]) -> list[tuple[int, int]]:
+    """The ``[start, stop)`` of each stretch of consecutive true values of ``mask``."""
+    edges = np.diff(np.concatenate([[0], mask.astype(np.int8), [0]]))
+    return list(zip(np.flatnonzero(edges == 1).tolist(), np.flatnonzero(edges == -1).tolist()))
+
+
+def _mean_angle(a: FloatArray) -> float:
+    return float(np.angle(np.mean(np.exp(1j * np.asarray(a, dtype=np.float64)))))
+
+
+def shoe_heading(points: FloatArray, turn: FloatArray) -> FloatArray:
+    """``(F, 2)`` each foot's heading (rad, the heel-to-toe line's azimuth in the floor's plane) over one track's
+    frames ``points`` ``(F, 2, 5, 3)`` (body frame) where its shoe's centre line measures it: the reported foot's
+    heading turned by ``turn`` ``(F, 2)`` (:func:`walker_gait.core.feet.measure_shoe_turn`, NaN unmeasured) in the
+    frames whose reported foot stands flat (heel and toe below :data:`SHOE_FLAT_HEIGHT_M`); carried from there
+    (the mean of the :data:`SHOE_CARRY_FRAMES` flat frames next to them) into the following frames whose toe stays
+    down (the heel rise: the foot pivots about its toes) and the frames before whose heel is down (after the heel
+    strike: it pivots about its heel).  NaN elsewhere, and for a foot with fewer than :data:`SHOE_FLAT_FRAMES` flat
+    frames measured or whose measured heading changes by more than :data:`SHOE_TURN_JUMP` from one flat frame to the
+    next (the median over the track: a planted foot does not turn; a trouser hem over the shoe sways).
+
+    On the synthetic sessions the flat feet's heading measured so is about 1 deg RMS off where the tracker's is 3-5
+    (DEVELOPERS.md, sixtieth session).  A foot in the air tilts its shoe and the line moves with the ankle and the
+    trouser above it: there it is no better than the tracker's."""
+    pts = np.asarray(points, dtype=np.float64)
+    tn = np.asarray(turn, dtype=np.float64).reshape(len(pts), 2)
+    out = np.full((len(pts), 2), np.nan)
+    for side in (0, 1):
+        heel_down = pts[:, side, HEEL, 2] < SHOE_FLAT_HEIGHT_M
+        toe_down = pts[:, side, TOE, 2] < SHOE_FLAT_HEIGHT_M
+        flat = heel_down & toe_down & np.isfinite(tn[:, side])
+        if int(flat.sum()) < SHOE_FLAT_FRAMES:
+            continue
+        d = pts[:, side, TOE, :2] - pts[:, side, HEEL, :2]
+        heading = np.arctan2(d[:, 1], d[:, 0]) + tn[:, side]
+        pairs = flat[1:] & flat[:-1]
+        if not pairs.any() or float(np.median(np.abs(_wrap(np.diff(heading)[pairs])))) > SHOE_TURN_JUMP:
+            continue
+        col = np.where(flat, _wrap(heading), np.nan)
+        for start, stop in _runs(flat):
+            last = _mean_angle(heading[max(start, stop - SHOE_CARRY_FRAMES):stop])
+            j = stop
+            while j < len(pts) and toe_down[j] and not flat[j]:
+                col[j] = last
+                j += 1
+            first = _mean_angle(heading[start:min(stop, start + SHOE_CARRY_FRAMES)])
+            j = start - 1
+            while j >= 0 and heel_down[j] and not flat[j] and not np.isfinite(col[j]):
+                col[j] = first
+                j -= 1
+        out[:, side] = col
     return out
 
 
@@ -411,13 +495,19 @@ def place_poses(poses: Sequence[LegPose], *, mounting: str = "facing_user",
     track = np.cumsum([p.status in (TrackStatus.NO_USER, TrackStatus.SEARCHING) for p in out])[idx]
     lengths = np.full((len(idx), 3), np.nan)
     pitch = np.full((len(idx), 2), np.nan)
-    rise = np.stack([np.full(2, np.nan) if out[i].shoe_rise is None else np.asarray(out[i].shoe_rise, dtype=np.float64)
-                     for i in idx])
+    heading = np.full((len(idx), 2), np.nan)
+
+    def measured(name: str) -> FloatArray:
+        return np.stack([np.full(2, np.nan) if getattr(out[i], name) is None
+                         else np.asarray(getattr(out[i], name), dtype=np.float64) for i in idx])
+
+    rise, turn = measured("shoe_rise"), measured("shoe_turn")
     for t in np.unique(track):
         lengths[track == t] = segment_lengths(body[track == t])
         pitch[track == t] = shoe_pitch(body[track == t], rise[track == t])
+        heading[track == t] = shoe_heading(body[track == t], turn[track == t])
     new, placed = _solve(body[rows], np.stack([out[idx[k]].angles for k in rows]), np.stack(targets), leg_length_m,
-                         lengths[rows], pitch[rows])
+                         lengths[rows], pitch[rows], heading[rows])
     for j, k in enumerate(rows):
         i = idx[k]
         before = poses[i - 1] if i > 0 else None
@@ -509,11 +599,13 @@ def moved_pose(pose: LegPose, rot: FloatArray, t: FloatArray) -> LegPose:
 
 
 def _solve(points: FloatArray, angles: FloatArray, target: FloatArray, leg_length_m: float | None,
-           lengths: FloatArray, foot_pitch: FloatArray | None = None) -> tuple[FloatArray, FloatArray]:
+           lengths: FloatArray, foot_pitch: FloatArray | None = None,
+           foot_heading: FloatArray | None = None) -> tuple[FloatArray, FloatArray]:
     """Poses ``points`` ``(F, 2, 5, 3)`` (body frame) with joint ``angles`` ``(F, 12)`` placed at ``target`` ``(F, 3)``
     (:func:`pelvis_target`'s x, y, azimuth) with the thigh, calf and foot ``lengths`` ``(F, 3)`` of their tracks
     (:func:`segment_lengths`; NaN: as tracked, a NaN foot in any row: every heel as tracked), the thighs and calves
-    of ``leg_length_m`` instead if given, and each heel at ``foot_pitch`` ``(F, 2)`` where finite (:func:`with_lengths`):
+    of ``leg_length_m`` instead if given, and each heel at ``foot_pitch`` and ``foot_heading`` ``(F, 2)`` where finite
+    (:func:`with_lengths`):
     the solved states ``(F, 23)`` and the points with the solution's hips and knees, the heels moved to the foot's
     length, the rest as given."""
     states = np.stack([pose_state(p, a) for p, a in zip(points, angles)])
@@ -523,7 +615,8 @@ def _solve(points: FloatArray, angles: FloatArray, target: FloatArray, leg_lengt
     legs = np.where(np.isfinite(lengths[:, :2]), lengths[:, :2], tracked)
     foot = lengths[:, 2] if np.all(np.isfinite(lengths[:, 2])) else None
     states, held = with_lengths(states, held, thigh=legs[:, 0], calf=legs[:, 1], foot=foot,
-                                foot_pitch=None if foot is None else foot_pitch)
+                                foot_pitch=None if foot is None else foot_pitch,
+                                foot_heading=None if foot is None else foot_heading)
     if leg_length_m is not None:
         states, held = with_leg_length(states, held, leg_length_m)
     new = place_pelvis(states, held, target[:, :2], yaw=target[:, 2])

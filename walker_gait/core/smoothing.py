@@ -317,8 +317,9 @@ def blend_poses(poses: Sequence[LegPose], chosen: int, *, agree_m: tuple[float, 
     both legs) lie within ``agree_m[0]`` (mean distance, m) of each other they are averaged with equal weights;
     the other pass's weight falls to 0 at ``agree_m[1]``, so a pose that is another mode (a leg left behind, legs
     exchanged) is not mixed in, and the merged trajectory has no jump where the distance crosses a threshold.
-    Points, joint angles, segments, radii and visibility are averaged; status, confidence and the rest are the
-    chosen pose's.
+    Points, joint angles, segments, radii, visibility and the shoes' turns are averaged (a turn is measured from its
+    pass's foot: averaged with the feet, the turned feet are the average of the passes' turned ones); status,
+    confidence and the rest are the chosen pose's.
     """
     lo, hi = agree_m
     base = poses[chosen]
@@ -346,7 +347,7 @@ def blend_poses(poses: Sequence[LegPose], chosen: int, *, agree_m: tuple[float, 
         return sum(w[k] * np.asarray(a, dtype=np.float64) for k, a in zip(used, arrays))  # type: ignore[return-value]
 
     return dataclasses.replace(base, points=mix("points"), angles=mix("angles"), segments=mix("segments"),
-                               radii=mix("radii"), visibility=mix("visibility"))
+                               radii=mix("radii"), visibility=mix("visibility"), shoe_turn=mix("shoe_turn"))
 
 
 def _has_points(pose: LegPose) -> bool:
@@ -363,14 +364,16 @@ def _feet_hidden(pose: LegPose, hide_below: float) -> NDArray[np.bool_]:
 
 def _with_leg_points(pose: LegPose, leg: int, new: FloatArray) -> LegPose:
     """``pose`` with leg ``leg``'s ``BRIDGE_POINTS`` at ``new`` (:func:`~walker_gait.core.pelvis.with_points`); its
-    shoe's measured rise is gone with the tracked foot it was measured along."""
+    shoe's measured rise and turn are gone with the tracked foot they were measured along."""
     pts = np.array(pose.points, dtype=np.float64, copy=True)
     pts[leg, np.array(BRIDGE_POINTS)] = new
     out = with_points(pose, pts)
-    if out.shoe_rise is not None:
-        rise = np.array(out.shoe_rise, dtype=np.float64, copy=True)
-        rise[leg] = np.nan
-        out = dataclasses.replace(out, shoe_rise=rise)
+    for name in ("shoe_rise", "shoe_turn"):
+        measured = getattr(out, name)
+        if measured is not None:
+            measured = np.array(measured, dtype=np.float64, copy=True)
+            measured[leg] = np.nan
+            out = dataclasses.replace(out, **{name: measured})
     return out
 
 

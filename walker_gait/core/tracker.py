@@ -130,7 +130,16 @@ from numpy.typing import NDArray
 
 from walker_gait.core import kernels
 from walker_gait.core import leg_model as lm
-from walker_gait.core.feet import ShoeRiseFit, ToeFit, across_only, measure_shoe_rise, measure_toes, toes_in_view
+from walker_gait.core.feet import (
+    ShoeRiseFit,
+    ShoeTurnFit,
+    ToeFit,
+    across_only,
+    measure_shoe_rise,
+    measure_shoe_turn,
+    measure_toes,
+    toes_in_view,
+)
 from walker_gait.core.presence import PresenceTest, legs_in_view
 from walker_gait.core.leg_model import BodyFrame, Kinematics, StateLayout
 from walker_gait.core.likelihood import (
@@ -607,9 +616,11 @@ class LegTracker:
 
     ``rng`` drives every random choice, so a seeded Generator makes the tracker deterministic.  ``time_reversed``:
     the frames come backwards in time (stamps negated, :func:`walker_gait.core.smoothing.track_pass`); only the
-    footprints' test of a swinging foot reads the direction (``footprint_sigma``).  ``shoe_rise``: each pose reports
-    the rise of its shoes' uppers (:func:`walker_gait.core.feet.measure_shoe_rise`, 1-2 ms a frame), which the offline
-    placement turns into the heels' pitch; false (the live node, whose placement keeps the tracker's heels): None.
+    footprints' test of a swinging foot reads the direction (``footprint_sigma``).  ``measure_shoes``: each pose
+    reports the rise of its shoes' uppers and how far their centre lines turn from the reported feet
+    (:func:`walker_gait.core.feet.measure_shoe_rise`, :func:`~walker_gait.core.feet.measure_shoe_turn`, 2-3 ms a
+    frame together), which the offline placement turns into the heels' pitch and heading; false (the live node, whose
+    placement keeps the tracker's heels): None.
     """
 
     def __init__(
@@ -620,7 +631,7 @@ class LegTracker:
         rng: np.random.Generator,
         mounting: str = "facing_user",
         time_reversed: bool = False,
-        shoe_rise: bool = True,
+        measure_shoes: bool = True,
     ) -> None:
         if mounting not in ("facing_user", "facing_forward"):
             raise ValueError(f"mounting must be 'facing_user' or 'facing_forward', got {mounting!r}")
@@ -632,7 +643,7 @@ class LegTracker:
         self._redetect_rng = _child_generator(rng)
         self.mounting = mounting
         self.time_reversed = time_reversed  # fed a recording backwards (stamps negated): the walker backs away
-        self.shoe_rise = shoe_rise
+        self.measure_shoes = measure_shoes
         self._noise = config.noise_vector()
         self._angle_mask = StateLayout.angle_mask()
         self._p3 = Cue3DParams(
@@ -651,6 +662,7 @@ class LegTracker:
         self._presence = config.presence_test()
         self._toe_fit = ToeFit(min_height=config.fg_min_height)
         self._rise_fit = ShoeRiseFit(min_height=config.fg_min_height)
+        self._turn_fit = ShoeTurnFit(min_height=config.fg_min_height)
         self._work = Workspace()  # likelihood scratch buffers, reused across frames
         kernels.compiled()  # load the likelihood's compiled kernels now (compiled once after an install), not on frame 1
         self.reset()
@@ -1391,7 +1403,10 @@ class LegTracker:
                                    intrinsics=self.intrinsics, fit=self._toe_fit, no_depth=frame.no_depth)
             pts_body = pts_body.copy()
             pts_body[:, TOE] = across_only(pts_body, toes, ~in_view)
-        rise = measure_shoe_rise(pts_body, frame.fg_all_body, fit=self._rise_fit) if self.shoe_rise else None
+        rise = turn = None
+        if self.measure_shoes:
+            rise = measure_shoe_rise(pts_body, frame.fg_all_body, fit=self._rise_fit)
+            turn = measure_shoe_turn(pts_body, frame.fg_all_body, fit=self._turn_fit)
         pose = LegPose(
             stamp=stamp,
             points=frame.body.to_camera(pts_body),
@@ -1403,6 +1418,7 @@ class LegTracker:
             confidence=conf,
             ess=effective_sample_size(self._logw),
             shoe_rise=rise,
+            shoe_turn=turn,
         )
         return pose, conf, explained, unsupported
 

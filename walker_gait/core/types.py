@@ -231,6 +231,7 @@ class LegPose:
     confidence: float = 1.0  # 0..1
     ess: float = float("nan")  # effective sample size of the particle set
     shoe_rise: FloatArray | None = None  # (2,) [side] rad, rise of the visible shoe upper behind the toe (feet.measure_shoe_rise), NaN unmeasured
+    shoe_turn: FloatArray | None = None  # (2,) [side] rad, the shoe's centre line's turn from the reported foot's heading, anticlockwise from above (feet.measure_shoe_turn), NaN unmeasured
 
     @classmethod
     def no_user(cls, stamp: float) -> LegPose:

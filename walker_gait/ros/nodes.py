@@ -395,9 +395,10 @@ class LegTrackerNode(WalkerNode):
         if intr == self.intrinsics:
             return
         self.intrinsics = intr
-        # the shoes' rise is for the offline placement's heels; the live placement keeps the tracker's (1-2 ms a frame)
+        # the shoes' rise and turn are for the offline placement's heels; the live placement keeps the tracker's (2-3 ms
+        # a frame)
         self.tracker = LegTracker(self.config, intr, rng=stage_rng(self.seed, "leg_tracker"), mounting=self.mounting,
-                                  shoe_rise=False)
+                                  measure_shoes=False)
         if self.pelvis is not None:
             self.pelvis.reset()
         while self._waiting:  # frames that were complete before the first CameraInfo
