@@ -14,6 +14,7 @@ from walker_gait.core.feet import (
     across_only,
     measure_shoe_rise,
     measure_shoe_turn,
+    measure_shoes,
     measure_toes,
     toes_in_view,
 )
@@ -372,3 +373,19 @@ def test_a_shoe_without_enough_in_view_is_not_turned() -> None:
         ShoeTurnFit(half_width=0.0)
     with pytest.raises(ValueError, match="fits"):
         ShoeTurnFit(fits=0)
+
+
+def test_both_shoe_measures_at_once_are_the_two_apart() -> None:
+    rng = np.random.default_rng(11)
+    toes = np.array([[0.30, 0.08, 0.0], [0.25, -0.05, 0.0]])
+    heels = toes - 0.26 * np.array([[np.cos(0.2), np.sin(0.2), 0.0], [1.0, 0.0, 0.0]])
+    pts = np.vstack([_upper(toes[0], 0.1, 0.3, rng), _upper(toes[1], 0.0, 0.0, rng), rng.uniform(-1.0, 1.0, (500, 3))])
+    legs = _legs(heels, toes)
+    rise, turn = measure_shoes(legs, pts)
+    np.testing.assert_array_equal(rise, measure_shoe_rise(legs, pts))
+    np.testing.assert_array_equal(turn, measure_shoe_turn(legs, pts))
+    assert np.all(np.isfinite(rise)) and np.all(np.isfinite(turn))
+    other = ShoeRiseFit(min_height=0.05)  # bands cut differently: measured apart
+    rise, turn = measure_shoes(legs, pts, rise_fit=other)
+    np.testing.assert_array_equal(rise, measure_shoe_rise(legs, pts, fit=other))
+    np.testing.assert_array_equal(turn, measure_shoe_turn(legs, pts))

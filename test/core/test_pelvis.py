@@ -560,3 +560,14 @@ def test_shoe_heading_is_the_reported_heading_turned_on_flat_frames() -> None:
     assert np.all(np.isnan(pv.shoe_heading(pts[31:], turn[31:])[:, 0]))  # nine flat frames measured: too few
     jumpy = turn + np.radians(np.where(np.arange(n) % 2, 2.5, -2.5))[:, None]
     assert np.all(np.isnan(pv.shoe_heading(pts, jumpy)))
+    swaying = turn.copy()
+    swaying[28:, 0] += np.radians(np.where(np.arange(28, n) % 2, 3.0, -3.0))  # the second stance's line sways
+    got = pv.shoe_heading(pts, swaying)
+    np.testing.assert_allclose(got[:20, 0], np.radians(3.0))
+    assert np.all(np.isnan(got[20:, 0]))  # neither measured nor carried back to its heel strike
+    lone = turn.copy()
+    lone[29:, 0] = np.nan  # a single flat frame measured in the second stance: nothing to check it by
+    assert np.all(np.isnan(pv.shoe_heading(pts, lone)[25:, 0]))
+    astray = turn + np.radians(np.array([[13.0, 0.0]]))  # the left line steadily 16-18 deg from the reported foot
+    assert np.all(np.isnan(pv.shoe_heading(pts, astray)[:, 0]))
+    np.testing.assert_allclose(pv.shoe_heading(pts, astray)[:, 1], np.radians(2.0), atol=1e-12)

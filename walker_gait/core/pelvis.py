@@ -32,7 +32,9 @@ the tracker holds a foot in its heel rise or swing several degrees off its pitch
 leg's data), while the shoe's upper, the foot's best-seen surface, turns with a rigid shoe.  Offline each heel is put
 behind the toe at the pitch its shoe's upper shows (:func:`shoe_pitch`: the upper's rise,
 :func:`walker_gait.core.feet.measure_shoe_rise`, less its rise on the track's flat frames), where the upper is seen
-cleanly enough to calibrate.
+cleanly enough to calibrate; and along the heading the shoe's centre line shows (:func:`shoe_heading`: the line
+through the upper's points, :func:`walker_gait.core.feet.measure_shoe_turn`) where the foot stands flat, carried into
+its heel rise and back to its heel strike (the tracker's foot's yaw, the end of the leg's chain, is 3-5 deg off).
 
 The hips' height is the leg lengths', which nothing in view measures either: given the user's measured leg length
 (``leg_length_m``, the hip joint centre's standing height above the floor, as gait labs record it), the thighs and
@@ -69,6 +71,7 @@ __all__ = [
     "SHOE_FLAT_HEIGHT_M",
     "SHOE_RISE_MAD",
     "SHOE_TURN_JUMP",
+    "SHOE_TURN_MAX",
     "STAND_LEAN_M",
     "THIGH_SHARE",
     "WALK_LEAN_M",
@@ -135,6 +138,11 @@ SHOE_TURN_JUMP = math.radians(2.0)
 be taken as the foot's heading (:func:`shoe_heading`): a planted foot does not turn, and a shoe seen clearly gives
 the same line frame after frame (median 0.15-0.75 deg on the sweep set C's clean sessions); a trouser hem over the
 shoe sways (4.3-5.4 deg under baggy trousers).  DEVELOPERS.md, sixtieth session."""
+SHOE_TURN_MAX = math.radians(12.0)
+"""Largest median turn (rad) of a shoe's centre line from the reported foot over the flat frames for the line to be
+taken as the foot's heading (:func:`shoe_heading`): the tracker holds a flat foot's heading 3-5 deg RMS off; a line
+that stays further from it is something else's (a trouser hem lying over the shoe: 15-47 deg on the sweep set B's
+baggy trousers, some of which sway little enough to pass :data:`SHOE_TURN_JUMP`).  DEVELOPERS.md, sixtieth session."""
 
 _HELD = [KNEE, ANKLE, HEEL, TOE]
 """The points of each leg a placed pelvis leaves where they were tracked."""
@@ -398,9 +406,16 @@ def shoe_heading(points: FloatArray, turn: FloatArray) -> FloatArray:
     frames whose reported foot stands flat (heel and toe below :data:`SHOE_FLAT_HEIGHT_M`); carried from there
     (the mean of the :data:`SHOE_CARRY_FRAMES` flat frames next to them) into the following frames whose toe stays
     down (the heel rise: the foot pivots about its toes) and the frames before whose heel is down (after the heel
-    strike: it pivots about its heel).  NaN elsewhere, and for a foot with fewer than :data:`SHOE_FLAT_FRAMES` flat
-    frames measured or whose measured heading changes by more than :data:`SHOE_TURN_JUMP` from one flat frame to the
-    next (the median over the track: a planted foot does not turn; a trouser hem over the shoe sways).
+    strike: it pivots about its heel).  NaN elsewhere, and:
+
+    * for a foot with fewer than :data:`SHOE_FLAT_FRAMES` flat frames measured;
+    * for a foot whose measured heading changes by more than :data:`SHOE_TURN_JUMP` from one flat frame to the next
+      (the median over the track: a planted foot does not turn; a trouser hem over the shoe sways) or whose line turns
+      from the reported foot by more than :data:`SHOE_TURN_MAX` (the median over its flat frames: something else's
+      line);
+    * on a stretch of flat frames shorter than two or whose heading changes by more than :data:`SHOE_TURN_JUMP` from
+      frame to frame (the median over the stretch: one stance whose line sways, as for a foot turned far from the
+      tracked one, which the measured stretch cuts askew).
 
     On the synthetic sessions the flat feet's heading measured so is about 1 deg RMS off where the tracker's is 3-5
     (DEVELOPERS.md, sixtieth session).  A foot in the air tilts its shoe and the line moves with the ankle and the
@@ -417,10 +432,14 @@ def shoe_heading(points: FloatArray, turn: FloatArray) -> FloatArray:
         d = pts[:, side, TOE, :2] - pts[:, side, HEEL, :2]
         heading = np.arctan2(d[:, 1], d[:, 0]) + tn[:, side]
         pairs = flat[1:] & flat[:-1]
-        if not pairs.any() or float(np.median(np.abs(_wrap(np.diff(heading)[pairs])))) > SHOE_TURN_JUMP:
+        if (not pairs.any() or float(np.median(np.abs(_wrap(np.diff(heading)[pairs])))) > SHOE_TURN_JUMP
+                or float(np.median(np.abs(tn[flat, side]))) > SHOE_TURN_MAX):
             continue
         col = np.where(flat, _wrap(heading), np.nan)
         for start, stop in _runs(flat):
+            if stop - start < 2 or float(np.median(np.abs(_wrap(np.diff(heading[start:stop]))))) > SHOE_TURN_JUMP:
+                col[start:stop] = np.nan  # one planted foot's line that sways (or a single frame, which cannot tell)
+                continue
             last = _mean_angle(heading[max(start, stop - SHOE_CARRY_FRAMES):stop])
             j = stop
             while j < len(pts) and toe_down[j] and not flat[j]:

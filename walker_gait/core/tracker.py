@@ -135,8 +135,7 @@ from walker_gait.core.feet import (
     ShoeTurnFit,
     ToeFit,
     across_only,
-    measure_shoe_rise,
-    measure_shoe_turn,
+    measure_shoes,
     measure_toes,
     toes_in_view,
 )
@@ -1405,8 +1404,7 @@ class LegTracker:
             pts_body[:, TOE] = across_only(pts_body, toes, ~in_view)
         rise = turn = None
         if self.measure_shoes:
-            rise = measure_shoe_rise(pts_body, frame.fg_all_body, fit=self._rise_fit)
-            turn = measure_shoe_turn(pts_body, frame.fg_all_body, fit=self._turn_fit)
+            rise, turn = measure_shoes(pts_body, frame.fg_all_body, rise_fit=self._rise_fit, turn_fit=self._turn_fit)
         pose = LegPose(
             stamp=stamp,
             points=frame.body.to_camera(pts_body),
