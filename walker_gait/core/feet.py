@@ -82,14 +82,16 @@ class ToeFit:
             raise ValueError(f"min_points must be >= 1, got {self.min_points}")
 
 
-def _distance_to_segment_xy(q: FloatArray, a: FloatArray, b: FloatArray) -> FloatArray:
-    """Horizontal distance of points ``q`` (N, 3) to the segment ``a``-``b`` projected on the floor."""
+def _distance_to_segment_xy(q: FloatArray, a: FloatArray, b: FloatArray, *, squared: bool = False) -> FloatArray:
+    """Horizontal distance of points ``q`` (N, 3) to the segment ``a``-``b`` projected on the floor (its square with
+    ``squared``)."""
     ab = (b - a)[:2]
     den = float(ab @ ab)
     rel = q[:, :2] - a[:2]
     t = np.zeros(q.shape[0]) if den < 1e-12 else np.clip((rel @ ab) / den, 0.0, 1.0)
     d = rel - t[:, None] * ab
-    return np.sqrt(np.einsum("ij,ij->i", d, d))
+    d2 = np.einsum("ij,ij->i", d, d)
+    return d2 if squared else np.sqrt(d2)
 
 
 def measure_toes(
@@ -257,37 +259,42 @@ def _shoe_band(legs: FloatArray, pts: FloatArray, *, min_height: float, above_to
                & (x > lo[0]) & (x < hi[0]) & (y > lo[1]) & (y < hi[1])]
 
 
-def _shoe_strips(legs: FloatArray, band: FloatArray, *, above_toe: float, behind: float, ahead: float,
-                 half_width: float, min_points: int) -> list[tuple[FloatArray, FloatArray, FloatArray] | None]:
-    """Per side, the points of ``band`` (:func:`_shoe_band`) on the stretch of the shoe behind its tracked toe: their
-    position along the tracked foot and across it (metres from the toe, the foot's left positive) and their height, or
-    None where fewer than ``min_points``: up to ``above_toe`` over the toe, from ``behind`` the toe to ``ahead`` of it
-    along the foot, within ``half_width`` of its line, and nearer this foot's heel-to-toe line than the other's (the
-    other shoe)."""
+def _near_toes(legs: FloatArray, band: FloatArray, *, above_toe: float, reach: float) -> list[FloatArray]:
+    """Per side, the points of ``band`` (:func:`_shoe_band`) up to ``above_toe`` over the tracked toe and within
+    ``reach`` of it in x and y."""
+    bx, by, bz = band[:, 0], band[:, 1], band[:, 2]
+    return [band[(bz < toe[2] + above_toe) & (np.abs(bx - toe[0]) < reach) & (np.abs(by - toe[1]) < reach)]
+            for toe in legs[:, TOE]]
+
+
+def _shoe_strips(legs: FloatArray, near: list[FloatArray], *, behind: float, ahead: float, half_width: float,
+                 min_points: int) -> list[tuple[FloatArray, FloatArray, FloatArray] | None]:
+    """Per side, the points of ``near`` (:func:`_near_toes`, a reach of at least ``hypot(behind, half_width)``) on the
+    stretch of the shoe behind its tracked toe: their position along the tracked foot and across it (metres from the
+    toe, the foot's left positive) and their height, or None where fewer than ``min_points``: from ``behind`` the toe
+    to ``ahead`` of it along the foot, within ``half_width`` of its line, and nearer this foot's heel-to-toe line than
+    the other's (the other shoe)."""
     out: list[tuple[FloatArray, FloatArray, FloatArray] | None] = [None, None]
     toes = legs[:, TOE]
-    reach = behind + half_width
-    bx, by, bz = band[:, 0], band[:, 1], band[:, 2]
     for side in (0, 1):
         toe = toes[side]
         u = (toe - legs[side, HEEL])[:2]
         norm = float(np.hypot(*u))
-        if norm < 1e-6:
+        if norm < 1e-6 or near[side].shape[0] < min_points:
             continue
         u = u / norm
-        near = band[(bz < toe[2] + above_toe) & (np.abs(bx - toe[0]) < reach) & (np.abs(by - toe[1]) < reach)]
-        if near.shape[0] < min_points:
-            continue
-        rel = near[:, :2] - toe[:2]
+        rel = near[side][:, :2] - toe[:2]
         s = rel @ u
         c = rel @ np.array([-u[1], u[0]])
         strip = (s < ahead) & (s > -behind) & (np.abs(c) < half_width)
-        near, s, c = near[strip], s[strip], c[strip]
-        keep = (_distance_to_segment_xy(near, legs[side, HEEL], toe)
-                < _distance_to_segment_xy(near, legs[1 - side, HEEL], toes[1 - side]))
+        pts, s, c = near[side][strip], s[strip], c[strip]
+        # squared distance to this foot's heel-to-toe line (s from the toe, c across it: the strip's own frame), and
+        # to the other's
+        own = c * c + np.maximum(s, 0.0) ** 2 + np.maximum(-norm - s, 0.0) ** 2
+        keep = own < _distance_to_segment_xy(pts, legs[1 - side, HEEL], toes[1 - side], squared=True)
         if int(keep.sum()) < min_points:
             continue
-        out[side] = (s[keep], c[keep], near[keep, 2])
+        out[side] = (s[keep], c[keep], pts[keep, 2])
     return out
 
 
@@ -321,14 +328,15 @@ def measure_shoe_rise(legs: FloatArray, points: FloatArray, *, fit: ShoeRiseFit 
     legs, pts = _checked(legs, points)
     if not np.all(np.isfinite(legs[:, (HEEL, TOE)])) or pts.shape[0] < fit.min_points:
         return np.full(2, np.nan)
-    band = _shoe_band(legs, pts, min_height=fit.min_height, above_toe=fit.above_toe, reach=fit.behind + fit.half_width)
-    return _rise_in(legs, band, fit)
+    reach = fit.behind + fit.half_width
+    band = _shoe_band(legs, pts, min_height=fit.min_height, above_toe=fit.above_toe, reach=reach)
+    return _rise_in(legs, _near_toes(legs, band, above_toe=fit.above_toe, reach=reach), fit)
 
 
-def _rise_in(legs: FloatArray, band: FloatArray, fit: ShoeRiseFit) -> FloatArray:
+def _rise_in(legs: FloatArray, near: list[FloatArray], fit: ShoeRiseFit) -> FloatArray:
     rise = np.full(2, np.nan)
-    strips = _shoe_strips(legs, band, above_toe=fit.above_toe, behind=fit.behind, ahead=fit.ahead,
-                          half_width=fit.half_width, min_points=fit.min_points)
+    strips = _shoe_strips(legs, near, behind=fit.behind, ahead=fit.ahead, half_width=fit.half_width,
+                          min_points=fit.min_points)
     for side, strip in enumerate(strips):
         if strip is not None:
             rise[side] = math.atan(-_slope(strip[0], strip[2]))
@@ -376,17 +384,18 @@ def measure_shoe_turn(legs: FloatArray, points: FloatArray, *, fit: ShoeTurnFit 
     legs, pts = _checked(legs, points)
     if not np.all(np.isfinite(legs[:, (HEEL, TOE)])) or pts.shape[0] < fit.min_points:
         return np.full(2, np.nan)
-    band = _shoe_band(legs, pts, min_height=fit.min_height, above_toe=fit.above_toe, reach=fit.behind + fit.half_width)
-    return _turn_in(legs, band, fit)
+    reach = fit.behind + fit.half_width
+    band = _shoe_band(legs, pts, min_height=fit.min_height, above_toe=fit.above_toe, reach=reach)
+    return _turn_in(legs, _near_toes(legs, band, above_toe=fit.above_toe, reach=reach), fit)
 
 
-def _turn_in(legs: FloatArray, band: FloatArray, fit: ShoeTurnFit) -> FloatArray:
+def _turn_in(legs: FloatArray, near: list[FloatArray], fit: ShoeTurnFit) -> FloatArray:
     turn = np.full(2, np.nan)
     legs = legs.copy()
     done = np.zeros(2)
     for _ in range(fit.fits):
-        strips = _shoe_strips(legs, band, above_toe=fit.above_toe, behind=fit.behind, ahead=fit.ahead,
-                              half_width=fit.half_width, min_points=fit.min_points)
+        strips = _shoe_strips(legs, near, behind=fit.behind, ahead=fit.ahead, half_width=fit.half_width,
+                              min_points=fit.min_points)
         for side, strip in enumerate(strips):
             if strip is None:
                 done[side] = math.nan
@@ -416,8 +425,9 @@ def measure_shoes(legs: FloatArray, points: FloatArray, *, rise_fit: ShoeRiseFit
         return measure_shoe_rise(legs, pts, fit=rise_fit), measure_shoe_turn(legs, pts, fit=turn_fit)
     reach = max(rise_fit.behind + rise_fit.half_width, turn_fit.behind + turn_fit.half_width)
     band = _shoe_band(legs, pts, min_height=rise_fit.min_height, above_toe=rise_fit.above_toe, reach=reach)
+    near = _near_toes(legs, band, above_toe=rise_fit.above_toe, reach=reach)
     if pts.shape[0] >= rise_fit.min_points:
-        rise = _rise_in(legs, band, rise_fit)
+        rise = _rise_in(legs, near, rise_fit)
     if pts.shape[0] >= turn_fit.min_points:
-        turn = _turn_in(legs, band, turn_fit)
+        turn = _turn_in(legs, near, turn_fit)
     return rise, turn
