@@ -229,8 +229,9 @@ def across_only(legs: FloatArray, toes: FloatArray, sides: BoolArray) -> FloatAr
 
 
 @dataclass(frozen=True, kw_only=True)
-class ShoeRiseFit:
-    """Parameters of :func:`measure_shoe_rise` (metres)."""
+class ShoeStretch:
+    """The stretch of a shoe behind its tracked toe whose points a line is fitted to (metres):
+    :class:`ShoeRiseFit`, :class:`ShoeTurnFit`."""
 
     min_height: float = 0.03  # lowest point used: the segmentation's floor cut
     above_toe: float = 0.14  # highest: this far above the tracked toe (the shoe's upper, below a trouser's hem)
@@ -246,6 +247,16 @@ class ShoeRiseFit:
                              f"{self.min_height}, {self.above_toe}, {self.behind}, {self.ahead}, {self.half_width}")
         if self.min_points < 3:
             raise ValueError(f"min_points must be >= 3, got {self.min_points}")
+
+    @property
+    def reach(self) -> float:
+        """How far (x and y) from the toe a point of the stretch can lie."""
+        return self.behind + self.half_width
+
+
+@dataclass(frozen=True, kw_only=True)
+class ShoeRiseFit(ShoeStretch):
+    """Parameters of :func:`measure_shoe_rise` (metres): the upper behind the toe."""
 
 
 def _shoe_band(legs: FloatArray, pts: FloatArray, *, min_height: float, above_toe: float, reach: float) -> FloatArray:
@@ -267,13 +278,14 @@ def _near_toes(legs: FloatArray, band: FloatArray, *, above_toe: float, reach: f
             for toe in legs[:, TOE]]
 
 
-def _shoe_strips(legs: FloatArray, near: list[FloatArray], *, behind: float, ahead: float, half_width: float,
-                 min_points: int) -> list[tuple[FloatArray, FloatArray, FloatArray] | None]:
-    """Per side, the points of ``near`` (:func:`_near_toes`, a reach of at least ``hypot(behind, half_width)``) on the
-    stretch of the shoe behind its tracked toe: their position along the tracked foot and across it (metres from the
-    toe, the foot's left positive) and their height, or None where fewer than ``min_points``: from ``behind`` the toe
-    to ``ahead`` of it along the foot, within ``half_width`` of its line, and nearer this foot's heel-to-toe line than
-    the other's (the other shoe)."""
+def _shoe_strips(legs: FloatArray, near: list[FloatArray],
+                 fit: ShoeStretch) -> list[tuple[FloatArray, FloatArray, FloatArray] | None]:
+    """Per side, the points of ``near`` (:func:`_near_toes`, at least the stretch's ``reach``) on the stretch of the
+    shoe behind its tracked toe: their position along the tracked foot and across it (metres from the toe, the foot's
+    left positive) and their height, or None where fewer than ``min_points``: from ``behind`` the toe to ``ahead`` of
+    it along the foot, within ``half_width`` of its line, and nearer this foot's heel-to-toe line than the other's (the
+    other shoe)."""
+    behind, ahead, half_width, min_points = fit.behind, fit.ahead, fit.half_width, fit.min_points
     out: list[tuple[FloatArray, FloatArray, FloatArray] | None] = [None, None]
     toes = legs[:, TOE]
     for side in (0, 1):
@@ -305,12 +317,19 @@ def _slope(x: FloatArray, y: FloatArray) -> float:
     return float(dx @ (y - y.mean())) / var if var >= 1e-8 else math.nan
 
 
-def _checked(legs: FloatArray, points: FloatArray) -> tuple[FloatArray, FloatArray]:
+def _near_shoes(legs: FloatArray, points: FloatArray, *fits: ShoeStretch) -> tuple[FloatArray, list[FloatArray] | None]:
+    """``legs`` as float and, per side, the foreground ``points`` near its toe that the ``fits``' stretches can take
+    (:func:`_near_toes`, cut once for all of them: they share their heights); None without both feet's heels and toes or
+    with fewer points than the fits need."""
     legs = np.asarray(legs, dtype=np.float64)
     pts = np.asarray(points, dtype=np.float64)
     if legs.shape != (2, 5, 3) or pts.ndim != 2 or pts.shape[1] != 3:
         raise ValueError(f"need legs (2, 5, 3) and points (N, 3), got {legs.shape} and {pts.shape}")
-    return legs, pts
+    if not np.all(np.isfinite(legs[:, (HEEL, TOE)])) or pts.shape[0] < min(f.min_points for f in fits):
+        return legs, None
+    reach = max(f.reach for f in fits)
+    band = _shoe_band(legs, pts, min_height=fits[0].min_height, above_toe=fits[0].above_toe, reach=reach)
+    return legs, _near_toes(legs, band, above_toe=fits[0].above_toe, reach=reach)
 
 
 def measure_shoe_rise(legs: FloatArray, points: FloatArray, *, fit: ShoeRiseFit = ShoeRiseFit()) -> FloatArray:
@@ -325,18 +344,13 @@ def measure_shoe_rise(legs: FloatArray, points: FloatArray, *, fit: ShoeRiseFit 
     foot's pitch in heel rise and swing (:func:`walker_gait.core.pelvis.place_poses`), which the particle filter
     holds several degrees off (its foot is fitted to the whole leg's data).  A point nearer the other foot's
     heel-to-toe line than this one's belongs to the other shoe."""
-    legs, pts = _checked(legs, points)
-    if not np.all(np.isfinite(legs[:, (HEEL, TOE)])) or pts.shape[0] < fit.min_points:
-        return np.full(2, np.nan)
-    reach = fit.behind + fit.half_width
-    band = _shoe_band(legs, pts, min_height=fit.min_height, above_toe=fit.above_toe, reach=reach)
-    return _rise_in(legs, _near_toes(legs, band, above_toe=fit.above_toe, reach=reach), fit)
+    legs, near = _near_shoes(legs, points, fit)
+    return np.full(2, np.nan) if near is None else _rise_in(legs, near, fit)
 
 
 def _rise_in(legs: FloatArray, near: list[FloatArray], fit: ShoeRiseFit) -> FloatArray:
     rise = np.full(2, np.nan)
-    strips = _shoe_strips(legs, near, behind=fit.behind, ahead=fit.ahead, half_width=fit.half_width,
-                          min_points=fit.min_points)
+    strips = _shoe_strips(legs, near, fit)
     for side, strip in enumerate(strips):
         if strip is not None:
             rise[side] = math.atan(-_slope(strip[0], strip[2]))
@@ -344,27 +358,18 @@ def _rise_in(legs: FloatArray, near: list[FloatArray], fit: ShoeRiseFit) -> Floa
 
 
 @dataclass(frozen=True, kw_only=True)
-class ShoeTurnFit:
+class ShoeTurnFit(ShoeStretch):
     """Parameters of :func:`measure_shoe_turn` (metres): a wider stretch than the rise's, the whole shoe's width
     (a shoe is about 10 cm wide) around a tracked line a few centimetres off it."""
 
-    min_height: float = 0.03  # lowest point used: the segmentation's floor cut
-    above_toe: float = 0.14  # highest: this far above the tracked toe
-    behind: float = 0.16  # the stretch of the shoe measured: this far behind the tracked toe along the foot ...
-    ahead: float = 0.03  # ... to this far ahead of it
-    half_width: float = 0.08  # and this far either side of the foot's line
-    min_points: int = 15  # fewer points leave a foot unmeasured
+    behind: float = 0.16
+    half_width: float = 0.08
     fits: int = 2  # lines fitted, each around the foot turned to the one before: a line fitted across-against-along
     # reads part of the shoe's width, turned with it, as along the tracked foot, which pulls it towards the tracked
     # heading by the ratio of the spreads across and along (a third for a 9 cm x 16 cm upper), less so each fit
 
     def __post_init__(self) -> None:
-        if not (0.0 <= self.min_height and self.above_toe > 0.0 and self.behind > 0.0 and self.ahead >= 0.0
-                and self.half_width > 0.0):
-            raise ValueError(f"need min_height >= 0, above_toe > 0, behind > 0, ahead >= 0 and half_width > 0, got "
-                             f"{self.min_height}, {self.above_toe}, {self.behind}, {self.ahead}, {self.half_width}")
-        if self.min_points < 3:
-            raise ValueError(f"min_points must be >= 3, got {self.min_points}")
+        super().__post_init__()
         if self.fits < 1:
             raise ValueError(f"fits must be >= 1, got {self.fits}")
 
@@ -381,12 +386,8 @@ def measure_shoe_turn(legs: FloatArray, points: FloatArray, *, fit: ShoeTurnFit 
     synthetic sessions where the tracker's is 2-6 deg off (DEVELOPERS.md, sixtieth session); a trouser hem over the
     shoe turns it anywhere, which the placement tells by how it jumps from frame to frame
     (:func:`walker_gait.core.pelvis.shoe_heading`)."""
-    legs, pts = _checked(legs, points)
-    if not np.all(np.isfinite(legs[:, (HEEL, TOE)])) or pts.shape[0] < fit.min_points:
-        return np.full(2, np.nan)
-    reach = fit.behind + fit.half_width
-    band = _shoe_band(legs, pts, min_height=fit.min_height, above_toe=fit.above_toe, reach=reach)
-    return _turn_in(legs, _near_toes(legs, band, above_toe=fit.above_toe, reach=reach), fit)
+    legs, near = _near_shoes(legs, points, fit)
+    return np.full(2, np.nan) if near is None else _turn_in(legs, near, fit)
 
 
 def _turn_in(legs: FloatArray, near: list[FloatArray], fit: ShoeTurnFit) -> FloatArray:
@@ -394,8 +395,7 @@ def _turn_in(legs: FloatArray, near: list[FloatArray], fit: ShoeTurnFit) -> Floa
     legs = legs.copy()
     done = np.zeros(2)
     for _ in range(fit.fits):
-        strips = _shoe_strips(legs, near, behind=fit.behind, ahead=fit.ahead, half_width=fit.half_width,
-                              min_points=fit.min_points)
+        strips = _shoe_strips(legs, near, fit)
         for side, strip in enumerate(strips):
             if strip is None:
                 done[side] = math.nan
@@ -417,17 +417,10 @@ def measure_shoes(legs: FloatArray, points: FloatArray, *, rise_fit: ShoeRiseFit
                   turn_fit: ShoeTurnFit = ShoeTurnFit()) -> tuple[FloatArray, FloatArray]:
     """:func:`measure_shoe_rise` and :func:`measure_shoe_turn` of the same frame, the foreground's band around the
     shoes cut once (the tracker's report: the same results as the two apart, in less time)."""
-    legs, pts = _checked(legs, points)
-    rise, turn = np.full(2, np.nan), np.full(2, np.nan)
-    if not np.all(np.isfinite(legs[:, (HEEL, TOE)])):
-        return rise, turn
     if rise_fit.min_height != turn_fit.min_height or rise_fit.above_toe != turn_fit.above_toe:
-        return measure_shoe_rise(legs, pts, fit=rise_fit), measure_shoe_turn(legs, pts, fit=turn_fit)
-    reach = max(rise_fit.behind + rise_fit.half_width, turn_fit.behind + turn_fit.half_width)
-    band = _shoe_band(legs, pts, min_height=rise_fit.min_height, above_toe=rise_fit.above_toe, reach=reach)
-    near = _near_toes(legs, band, above_toe=rise_fit.above_toe, reach=reach)
-    if pts.shape[0] >= rise_fit.min_points:
-        rise = _rise_in(legs, near, rise_fit)
-    if pts.shape[0] >= turn_fit.min_points:
-        turn = _turn_in(legs, near, turn_fit)
+        return measure_shoe_rise(legs, points, fit=rise_fit), measure_shoe_turn(legs, points, fit=turn_fit)
+    legs, near = _near_shoes(legs, points, rise_fit, turn_fit)
+    n = np.asarray(points).shape[0]
+    rise = _rise_in(legs, near, rise_fit) if near is not None and n >= rise_fit.min_points else np.full(2, np.nan)
+    turn = _turn_in(legs, near, turn_fit) if near is not None and n >= turn_fit.min_points else np.full(2, np.nan)
     return rise, turn
