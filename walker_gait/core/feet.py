@@ -391,9 +391,8 @@ def measure_shoe_turn(legs: FloatArray, points: FloatArray, *, fit: ShoeTurnFit 
 
 
 def _turn_in(legs: FloatArray, near: list[FloatArray], fit: ShoeTurnFit) -> FloatArray:
-    turn = np.full(2, np.nan)
     legs = legs.copy()
-    done = np.zeros(2)
+    done = np.zeros(2)  # the turn so far, per side (NaN: unmeasured)
     for _ in range(fit.fits):
         strips = _shoe_strips(legs, near, fit)
         for side, strip in enumerate(strips):
@@ -409,8 +408,7 @@ def _turn_in(legs: FloatArray, near: list[FloatArray], fit: ShoeTurnFit) -> Floa
                                                                         s_ * back[0] + c * back[1]])
         if not np.any(np.isfinite(done)):
             break
-    turn[:] = done
-    return turn
+    return done
 
 
 def measure_shoes(legs: FloatArray, points: FloatArray, *, rise_fit: ShoeRiseFit = ShoeRiseFit(),
