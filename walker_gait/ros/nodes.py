@@ -395,8 +395,8 @@ class LegTrackerNode(WalkerNode):
         if intr == self.intrinsics:
             return
         self.intrinsics = intr
-        # the shoes' rise and turn are for the offline placement's heels; the live placement keeps the tracker's (2-3 ms
-        # a frame)
+        # the shoes' rise and turn are for the offline placement's heels; the live placement keeps the tracker's (about
+        # 5 ms a frame saved)
         self.tracker = LegTracker(self.config, intr, rng=stage_rng(self.seed, "leg_tracker"), mounting=self.mounting,
                                   measure_shoes=False)
         if self.pelvis is not None:
