@@ -413,11 +413,13 @@ def test_two_passes_merge_the_forward_pass_with_a_backward_one(short_session: Pa
 
 def test_one_pass_reports_the_pelvis_placed_frame_by_frame_as_the_live_node(short_session: Path) -> None:
     """``passes="forward"``: the reported poses are the tracker's with the out-of-view pelvis placed over the feet
-    frame by frame (``core.pelvis.LivePelvis``, as the live leg_tracker node); the feet, the events and the steps are
-    the same as without it."""
+    and the heels where the shoes show them frame by frame (``core.pelvis.LivePelvis``, as the live leg_tracker node);
+    the ankles, the toes, the tracker's own heels (``heel_tracked``, what the analysis reads), the events and the steps
+    are the same as without it."""
     from types import SimpleNamespace
 
     from walker_gait.core.pelvis import LivePelvis
+    from walker_gait.core.types import ANKLE, TOE
     from walker_gait.io.bags import open_recording
     from walker_gait.pipeline import FrameProcessor
 
@@ -434,15 +436,20 @@ def test_one_pass_reports_the_pelvis_placed_frame_by_frame_as_the_live_node(shor
             got.append(proc.process(**kw))
     assert len(got_on) == 75
     live = LivePelvis(mounting="facing_user", window_s=on.options.report_pelvis_window_s)
-    placed = 0
+    placed = heels = 0
     for a, b in zip(got_off, got_on):
-        np.testing.assert_array_equal(a.pose.points[:, 2:], b.pose.points[:, 2:])  # ankles, heels, toes
-        np.testing.assert_array_equal(live.place(a.pose, a.floor).points, b.pose.points)
+        assert a.pose.shoe_turn is None  # the placement off: the shoes are not measured (the tracking is the same)
+        np.testing.assert_array_equal(a.pose.points[:, [ANKLE, TOE]], b.pose.points[:, [ANKLE, TOE]])
+        np.testing.assert_array_equal(a.pose.points[:, 2:], b.pose.as_tracked().points[:, 2:])
+        measured = dataclasses.replace(a.pose, shoe_rise=b.pose.shoe_rise, shoe_turn=b.pose.shoe_turn)
+        np.testing.assert_array_equal(live.place(measured, a.floor).points, b.pose.points)
         placed += not np.array_equal(a.pose.points, b.pose.points, equal_nan=True)
+        heels += b.pose.heel_tracked is not None
         assert [s.stamp for s in a.steps] == [s.stamp for s in b.steps]
         assert [(e.stamp, e.kind) for e in a.events] == [(e.stamp, e.kind) for e in b.events]
         assert "pelvis" in b.timings_ms and "pelvis" not in a.timings_ms
     assert placed > 40  # every tracked frame's hips moved
+    assert heels > 10  # and the heels of feet whose shoes the track has shown cleanly
 
 
 def test_the_backward_pass_tells_its_tracker_that_time_runs_backwards(monkeypatch: pytest.MonkeyPatch) -> None:

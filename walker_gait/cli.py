@@ -331,7 +331,8 @@ def build_parser() -> argparse.ArgumentParser:
                        "again so that the tracked knees, ankles, heels and toes stay (with --passes both a window centred "
                        "on the frame, with forward the last S seconds, as the live graph), with one length of "
                        "each segment per track, the tracked ones' median (the knees moved along the tracked calves "
-                       "to it, with both also the heels along the tracked feet from the toes; default 1.0; 0 = the "
+                       "to it, and the heels along the tracked feet from the toes at the pitch and heading their "
+                       "shoes show, with forward only where the track has shown the shoe cleanly; default 1.0; 0 = the "
                        "hips, knees and heels as tracked; the steps and events are the same either way)")
         p.add_argument("--leg-length-m", type=float, default=None, metavar="M",
                        help="the user's measured leg length in metres (the hip joint centre's height above the floor "

@@ -22,6 +22,7 @@ from numpy.typing import NDArray
 from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 
 from walker_gait.core.types import (
+    HEEL,
     JOINT_NAMES,
     LEG_POINTS,
     SEGMENTS,
@@ -346,6 +347,7 @@ def make_leg_track(pose: LegPose, header: Any, *, particle_count: int = 0) -> An
     }
     for j, name in enumerate(LEG_POINTS):  # the message's point fields are named as LEG_POINTS
         kwargs[name] = _side_points(pose.points[:, j])
+    kwargs["heel_tracked"] = _side_points(pose.points[:, HEEL] if pose.heel_tracked is None else pose.heel_tracked)
     for si, seg in enumerate(SEGMENTS):
         kwargs[f"{seg}_proximal"] = _side_points(segs[:, si, 0])
         kwargs[f"{seg}_distal"] = _side_points(segs[:, si, 1])
@@ -356,8 +358,10 @@ def make_leg_track(pose: LegPose, header: Any, *, particle_count: int = 0) -> An
 
 
 def leg_pose_from_track(msg: Any) -> LegPose:
-    """Rebuild a :class:`LegPose` (points, segments, radii, visibility, status) from a ``LegTrack``: the points are
-    the message's reported ones (its ``LEG_POINTS`` fields), not its segments' ends."""
+    """Rebuild a :class:`LegPose` (points, segments, radii, visibility, status, the tracker's own heels) from a
+    ``LegTrack``: the points are the message's reported ones (its ``LEG_POINTS`` fields), not its segments' ends;
+    ``heel_tracked`` where the message's differ from its reported heels (:meth:`LegPose.as_tracked` is what the gait
+    analysis reads)."""
     segs = np.empty((2, 3, 2, 3))
     radii = np.empty((2, 3, 2))
     vis = np.empty((2, 3))
@@ -372,6 +376,13 @@ def leg_pose_from_track(msg: Any) -> LegPose:
     for s in range(2):
         for j, name in enumerate(LEG_POINTS):
             points[s, j] = _xyz(getattr(msg, name)[s])
+    # the tracker's own heels (a message recorded before the field existed has none: its heels are the tracker's)
+    tracked = getattr(msg, "heel_tracked", None)
+    heel_tracked = None
+    if tracked is not None and len(tracked) == 2:
+        heel_tracked = np.stack([_xyz(tracked[s]) for s in range(2)])
+        if np.array_equal(heel_tracked, points[:, HEEL], equal_nan=True):
+            heel_tracked = None
     return LegPose(
         stamp=stamp_to_s(msg.header.stamp),
         points=points,
@@ -381,6 +392,7 @@ def leg_pose_from_track(msg: Any) -> LegPose:
         status=TrackStatus(int(msg.status)),
         confidence=float(msg.confidence),
         ess=float(msg.effective_sample_size),
+        heel_tracked=heel_tracked,
     )
 
 

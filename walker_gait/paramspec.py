@@ -52,7 +52,10 @@ NODE_PARAMS: dict[str, list[tuple[str, Any, str]]] = {
                                  "it: more walking than standing; facing the feet's heading) and the joint angles "
                                  "solved again so that the tracked knees, ankles, heels and toes stay, the thighs "
                                  "and calves of the track's median lengths so far, each knee moved along its "
-                                 "tracked calf to it (`walker_gait.core.pelvis`; 0 = as tracked)"),
+                                 "tracked calf to it; the heel of a foot whose shoe the track has shown cleanly "
+                                 "behind its toe at the median foot length so far, at the pitch and heading its "
+                                 "shoe shows (the tracker's heels in `leg_track`'s `heel_tracked`, which the gait "
+                                 "analyzer reads; `walker_gait.core.pelvis`; 0 = as tracked, the shoes not measured)"),
         ("leg_length_m", 0.0, "m; the user's measured leg length (the hip joint centre's standing height above the "
                               "floor: floor to greater trochanter; only the stature known: about 0.53 of it): with the "
                               "pelvis placed, the published thighs and "

@@ -444,11 +444,11 @@ class FrameProcessor:
             raise StampOrderError(msg)
         self._last_stamp = frame.stamp
         if self.tracker is None or frame.intrinsics != self._tracker_intrinsics:
-            # the shoes' rise and turn are read only by the two-pass placement's heels (one pass places as live: as
-            # tracked)
+            # the shoes' rise and turn place the reported heels (both passes: afterwards; one: frame by frame, as
+            # live)
             self.tracker = LegTracker(self.options.tracker, frame.intrinsics,
                                       rng=stage_rng(self.options.seed, "leg_tracker"), mounting=self.options.mounting,
-                                      measure_shoes=self._two_way)
+                                      measure_shoes=self._two_way or self._pelvis is not None)
             self._tracker_intrinsics = frame.intrinsics
             if self._pelvis is not None:
                 self._pelvis.reset()
@@ -473,7 +473,7 @@ class FrameProcessor:
         events, steps = self.analyzer.update(pose, frame.floor)
         t4 = time.perf_counter()
         timings = dict(frame.timings_ms, tracker=(t3 - t2) * 1e3, gait=(t4 - t3) * 1e3)
-        if self._pelvis is not None:  # what is reported; the analyzer has read the pose as tracked (the same feet)
+        if self._pelvis is not None:  # what is reported; the analyzer has read the pose as tracked (its heels too)
             pose = self._pelvis.place(pose, frame.floor)
             timings["pelvis"] = (time.perf_counter() - t4) * 1e3
         return FrameResult(pose=pose, floor=frame.floor, events=list(events), steps=list(steps),

@@ -368,8 +368,8 @@ def test_a_track_is_reported_with_one_length_of_each_segment() -> None:
     whose calves and shoes wander about the true lengths is reported as the same walk tracked without the wander:
     every heel at the track's median foot length along its tracked foot from the seen toe, the knees and hips within
     a few mm; the toes and ankles stay bit for bit.  A frame without a user ends a track: the next one (another user,
-    feet 3 cm longer) gets its own lengths.  Live, the heels stay the tracker's (the live gait analyzer reads them)
-    and the knees and hips those of the walk without the wander."""
+    feet 3 cm longer) gets its own lengths.  Live, without the shoes measured (nothing shows where the heels are), the
+    heels stay the tracker's and the knees and hips are those of the walk without the wander."""
     rng = np.random.default_rng(3)
     poses, _ = _walk(n=90, thigh=0.47)  # a thigh 5 cm longer than the calf
     longer = []  # the second user's feet: 3 cm longer (heels further back)
@@ -398,7 +398,7 @@ def test_a_track_is_reported_with_one_length_of_each_segment() -> None:
     np.testing.assert_allclose(pv.segment_lengths(before[:45])[1:],
                                [np.median(_lengths(before[:45])[k]) for k in (0, 1)])
     assert np.all(np.isnan(pv.segment_lengths(np.full((3, 2, 5, 3), np.nan))))
-    # live: the heels as tracked; the knees and hips those of the clean walk's live placement
+    # live, no shoe measures: the heels as tracked; the knees and hips those of the clean walk's live placement
     floor = _floor()
     rot, t = floor.walker_transform()
 
@@ -571,3 +571,82 @@ def test_shoe_heading_is_the_reported_heading_turned_on_flat_frames() -> None:
     astray = turn + np.radians(np.array([[13.0, 0.0]]))  # the left line steadily 16-18 deg from the reported foot
     assert np.all(np.isnan(pv.shoe_heading(pts, astray)[:, 0]))
     np.testing.assert_allclose(pv.shoe_heading(pts, astray)[:, 1], np.radians(2.0), atol=1e-12)
+
+
+def _live(poses: list[LegPose]) -> tuple[list[LegPose], list[LegPose], np.ndarray]:
+    """``poses`` (walker frame) given to a fresh :class:`LivePelvis` in the camera frame of :func:`_floor`, frame by
+    frame: the camera-frame poses given and placed, and the placed points in the body frame.  Each frame's hips are
+    moved by a micrometre more than the last's: a tracker reports the same pose twice only when it holds it (a blanked
+    view), which the placement holds too."""
+    floor = _floor()
+    rot, t = floor.walker_transform()
+    given = []
+    for i, p in enumerate(poses):
+        pts = np.array(p.points, dtype=np.float64, copy=True)
+        pts[:, HIP, 0] += 1e-6 * i
+        given.append(pv.moved_pose(dataclasses.replace(p, points=pts), rot.T, -(rot.T @ t)))
+    live = pv.LivePelvis()
+    out = [live.place(p, floor) for p in given]
+    return given, out, np.stack([floor.to_walker(p.points) for p in out]) @ FLIP
+
+
+def test_live_heels_are_placed_causally_where_the_shoe_shows_them() -> None:
+    """Live, frame by frame: once a foot's shoe has stood flat for :data:`SHOE_FLAT_FRAMES` frames with a steady rise,
+    its heel is reported at the pitch its upper shows (a heel rise the tracker holds 12 deg too flat: as offline,
+    within 3 mm) at the track's foot length so far; before that, and for an upper whose rise scatters and which
+    shows no steady heading, the tracker's heels bit for bit.  The ankles and toes stay the tracker's, and a pose
+    whose heels moved keeps the tracker's as ``heel_tracked`` (what the gait analysis reads)."""
+    rng = np.random.default_rng(5)
+    tracked = _stand_then_heel_up(tracked_pitch_deg=8.0)
+    n = len(tracked)
+    rise = 0.25 + rng.normal(0.0, 0.002, (n, 2))
+    rise[n // 2:, 0] += np.radians(20.0)
+    with_rise = [dataclasses.replace(p, shoe_rise=r) for p, r in zip(tracked, rise)]
+    given, out, after = _live(with_rise)
+    offline = np.stack([p.points for p in pv.place_poses(with_rise)]) @ FLIP
+    assert np.abs(after[n // 2:, 0, HEEL] - offline[n // 2:, 0, HEEL]).max() < 0.003
+    before = np.stack([p.points for p in tracked]) @ FLIP
+    assert np.abs(before[n // 2:, 0, HEEL] - offline[n // 2:, 0, HEEL]).max() > 0.04  # as tracked: 5 cm off
+    early = pv.SHOE_FLAT_FRAMES - 1  # frames before the shoe is calibrated
+    for g, o in zip(given, out):
+        np.testing.assert_array_equal(o.points[:, [ANKLE, TOE]], g.points[:, [ANKLE, TOE]])
+        np.testing.assert_array_equal(o.as_tracked().points[:, 2:], g.points[:, 2:])
+    assert all(o.heel_tracked is None and np.array_equal(o.points[:, HEEL], g.points[:, HEEL])
+               for g, o in zip(given[:early], out[:early]))
+    assert all(o.heel_tracked is not None for o in out[early:])
+    # the angles are solved for the reported heels: the raised left ankle more plantarflexed than as tracked
+    ank = 4  # left ankle dorsiflexion in JOINT_NAMES order
+    _, plain, _ = _live(tracked)
+    assert all(p.heel_tracked is None for p in plain)  # no shoe measures: the tracker's heels
+    assert all(p.angles[ank] - o.angles[ank] > np.radians(3.0) for p, o in zip(plain[n // 2:], out[n // 2:]))
+    scattered = [dataclasses.replace(p, shoe_rise=r + rng.normal(0.0, np.radians(3.0), 2)) for p, r in zip(tracked, rise)]
+    _, noisy, _ = _live(scattered)
+    assert all(q.heel_tracked is None and np.array_equal(q.points[:, HEEL], p.points[:, HEEL])
+               for q, p in zip(noisy, plain))
+
+
+def test_live_flat_feet_follow_the_heading_their_shoe_shows() -> None:
+    """Live: a flat foot the tracker holds 7 deg off its heading is reported along the heading its shoe's centre line
+    shows once the track has :data:`SHOE_FLAT_FRAMES` flat frames of a steady line (within 0.6 deg, as offline), its
+    heel behind the seen toe at the foot's length; a swaying line leaves the heels as tracked."""
+    rng = np.random.default_rng(6)
+    n = 30
+    true = _state([0, 2, 0, 5, 5, 0, 0, 2, 0, 5, 5, 0])
+    x = _state([0, 2, 7.0, 5, 5, 0, 0, 2, 0, 5, 5, 0])
+    tracked = [LegPose(stamp=i / 30.0, points=lm.forward_kinematics(x).points[0] @ FLIP, angles=lm.joint_angles(x),
+                       segments=np.zeros((2, 3, 2, 3))) for i in range(n)]
+    body = tracked[0].points @ FLIP
+    want = _heading(lm.forward_kinematics(true).points[0])[0]
+    turn = np.column_stack([np.full(n, want - _heading(body)[0]), np.zeros(n)]) + rng.normal(0.0, np.radians(0.2), (n, 2))
+    given, out, after = _live([dataclasses.replace(p, shoe_turn=t) for p, t in zip(tracked, turn)])
+    early = pv.SHOE_FLAT_FRAMES
+    assert np.all(np.abs(np.degrees(_heading(after[early:])[:, 0] - want)) < 0.6)
+    assert np.all(np.abs(np.degrees(_heading(after[:early - 1])[:, 0] - want)) > 5.0)  # not yet: as tracked
+    np.testing.assert_allclose(np.linalg.norm(after[:, 0, TOE] - after[:, 0, HEEL], axis=-1),
+                               np.linalg.norm(body[0, TOE] - body[0, HEEL]), atol=1e-6)
+    for g, o in zip(given, out):
+        np.testing.assert_array_equal(o.as_tracked().points[:, 2:], g.points[:, 2:])
+    swaying = [dataclasses.replace(p, shoe_turn=t + rng.normal(0.0, np.radians(5.0), 2)) for p, t in zip(tracked, turn)]
+    given, out, _ = _live(swaying)
+    assert all(o.heel_tracked is None and np.array_equal(o.points[:, HEEL], g.points[:, HEEL])
+               for g, o in zip(given, out))

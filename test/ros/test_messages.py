@@ -115,6 +115,24 @@ def test_leg_track_round_trips_a_pose() -> None:
     np.testing.assert_allclose(back.visibility, pose.visibility, rtol=1e-6)
     np.testing.assert_allclose(back.radii, pose.radii, rtol=1e-6)
     assert back.stamp == pytest.approx(3.5)
+    assert back.heel_tracked is None and back.as_tracked() is back  # the heels as tracked: nothing moved them
+
+
+def test_leg_track_carries_the_trackers_heels_beside_the_placed_ones() -> None:
+    """Live, the placement moves the reported heels (LivePelvis); the message keeps the tracker's in ``heel_tracked``
+    and the pose rebuilt from it gives them back to the gait analysis (``as_tracked``), the other points as reported."""
+    rng = np.random.default_rng(1)
+    points = rng.normal(size=(2, 5, 3))
+    tracked = points[:, 3] + np.array([0.03, 0.0, -0.01])
+    pose = LegPose(stamp=2.0, points=points, heel_tracked=tracked)
+    msg = M.deserialize(M.serialize(M.make_leg_track(pose, M.make_header(2.0, "c"))), M.LEG_TRACK)
+    back = M.leg_pose_from_track(msg)
+    np.testing.assert_allclose(back.points, points, atol=1e-12)
+    np.testing.assert_allclose(back.heel_tracked, tracked, atol=1e-12)
+    analysed = back.as_tracked()
+    np.testing.assert_allclose(analysed.points[:, 3], tracked, atol=1e-12)
+    np.testing.assert_array_equal(np.delete(analysed.points, 3, axis=1), np.delete(back.points, 3, axis=1))
+    assert analysed.heel_tracked is None
 
 
 def test_pointcloud2_round_trip_organised_and_dense() -> None:

@@ -23,9 +23,11 @@ so they describe the pose the points show.
 A user's thighs, calves and shoes keep their lengths, but the tracker's lengths are part of its state and wander
 with it from frame to frame (sd 2.4 cm for the shoe within a session, where its error from one session to the next
 is 1.2-1.6 cm): the placement reports each track with one length of each, the median over the track so far
-(:func:`segment_lengths`), each knee moved along its tracked calf to the calf's length and, offline, each heel along
-its tracked foot (from the seen toe) to the shoe's length.  Live the heels stay the tracker's, which the live gait
-analyzer reads, so that its steps stay those of ``walker-gait process --passes forward``.
+(:func:`segment_lengths`), each knee moved along its tracked calf to the calf's length and each heel along its
+tracked foot (from the seen toe) to the shoe's length (live only a heel whose shoe the track has shown cleanly:
+:meth:`LivePelvis.place`).  The gait analysis reads the heels as tracked: live the placed pose keeps them as
+``LegPose.heel_tracked`` (``LegTrack.heel_tracked``), so that the live steps stay those of ``walker-gait process
+--passes forward``.
 
 The heel is hidden behind the shoe, so where it stands is the toe's place, the shoe's length and the foot's pitch;
 the tracker holds a foot in its heel rise or swing several degrees off its pitch (its foot is fitted to the whole
@@ -34,7 +36,8 @@ behind the toe at the pitch its shoe's upper shows (:func:`shoe_pitch`: the uppe
 :func:`walker_gait.core.feet.measure_shoe_rise`, less its rise on the track's flat frames), where the upper is seen
 cleanly enough to calibrate; and along the heading the shoe's centre line shows (:func:`shoe_heading`: the line
 through the upper's points, :func:`walker_gait.core.feet.measure_shoe_turn`) where the foot stands flat, carried into
-its heel rise and back to its heel strike (the tracker's foot's yaw, the end of the leg's chain, is 3-5 deg off).
+its heel rise and back to its heel strike (the tracker's foot's yaw, the end of the leg's chain, is 3-5 deg off);
+live both over the track so far, the heading carried into the heel rise only (:class:`LivePelvis`).
 
 The hips' height is the leg lengths', which nothing in view measures either: given the user's measured leg length
 (``leg_length_m``, the hip joint centre's standing height above the floor, as gait labs record it), the thighs and
@@ -321,7 +324,8 @@ _BACK = np.array([-1.0, 0.0, 0.0])  # body frame: the heel behind the toe
 def with_lengths(states: FloatArray, held: FloatArray, *, thigh: float | FloatArray, calf: float | FloatArray,
                  foot: float | FloatArray | None = None,
                  foot_pitch: FloatArray | None = None,
-                 foot_heading: FloatArray | None = None) -> tuple[FloatArray, FloatArray]:
+                 foot_heading: FloatArray | None = None,
+                 heel_sides: NDArray[np.bool_] | None = None) -> tuple[FloatArray, FloatArray]:
     """``states`` ``(F, 23)`` with these thigh and calf lengths (m) and ``held`` ``(F, 2, 4, 3)``
     (:func:`held_points`) with each knee moved along its tracked calf (the lower calf is in view, the knee is not) to
     the calf length; with a ``foot`` length also the states' feet of that length and each heel moved along its
@@ -329,7 +333,7 @@ def with_lengths(states: FloatArray, held: FloatArray, *, thigh: float | FloatAr
     ``foot_pitch`` ``(F, 2)`` (rad, the heel-to-toe line's elevation: negative heel-up) is finite, behind the toe along
     the tracked foot's heading at that pitch; where ``foot_heading`` ``(F, 2)`` (rad, the heel-to-toe line's azimuth
     in the floor's plane) is finite, behind the toe along that heading (at the pitch given, else the tracked
-    foot's)."""
+    foot's); with ``heel_sides`` ``(F, 2)`` only those heels move (the others stay as held)."""
     x = np.array(states, dtype=np.float64, copy=True)
     h = np.array(held, dtype=np.float64, copy=True)
     x[:, L.LEN_THIGH] = thigh
@@ -355,7 +359,9 @@ def with_lengths(states: FloatArray, held: FloatArray, *, thigh: float | FloatAr
             p = np.nan_to_num(pitch)[..., None]
             aimed = h[:, :, 3] + np.concatenate([np.cos(p) * flat, -np.sin(p)], axis=-1)  # one metre behind the toe
             toward = np.where(np.isfinite(pitch)[..., None], aimed, toward)
-        h[:, :, 2] = _along(h[:, :, 3], toward, x[:, L.LEN_FOOT], _BACK)
+        moved = _along(h[:, :, 3], toward, x[:, L.LEN_FOOT], _BACK)
+        h[:, :, 2] = moved if heel_sides is None else np.where(
+            np.asarray(heel_sides, dtype=bool).reshape(len(x), 2)[..., None], moved, h[:, :, 2])
     return x, h
 
 
@@ -540,14 +546,36 @@ def place_poses(poses: Sequence[LegPose], *, mounting: str = "facing_user",
     return out
 
 
+@dataclasses.dataclass
+class _LiveShoe:
+    """One foot's shoe measures over a live track so far (:meth:`LivePelvis.place`)."""
+
+    rises: deque[float]  # the shoe's rise on its flat frames
+    turns: deque[float]  # its turn on its flat frames
+    jumps: deque[float]  # the heading's change from one flat frame to the next
+    stance: list[float] = dataclasses.field(default_factory=list)  # the headings of the flat frames up to this one
+    carry: float = math.nan  # the heading carried into the heel rise after the last stance
+
+
+def _live_shoe() -> _LiveShoe:
+    return _LiveShoe(deque(maxlen=LIVE_LENGTHS_FRAMES), deque(maxlen=LIVE_LENGTHS_FRAMES),
+                     deque(maxlen=LIVE_LENGTHS_FRAMES))
+
+
+def _steady(stance: list[float]) -> bool:
+    """A stretch of flat frames whose heading holds (:func:`shoe_heading`'s per-stance gate)."""
+    return len(stance) >= 2 and float(np.median(np.abs(_wrap(np.diff(stance))))) <= SHOE_TURN_JUMP
+
+
 class LivePelvis:
     """:func:`place_poses` frame by frame, for the live graph: the ankles' midpoint over the last ``window_s`` (a
     straight line fitted to it against time, read at the newest frame, so a user who walks in or drifts towards the
     walker is not left behind by half a window) with the lean of the feet's swing and their heading in that window
-    (:func:`pelvis_target`), the same re-solve with the thighs and calves of the median lengths over the track's
-    frames so far (at most :data:`LIVE_LENGTHS_FRAMES`; the heels stay the tracker's).  A frame without a track, a
-    floor or time that runs backwards starts the history afresh; a pose the tracker held (the same points and angles
-    as the last one placed: a blanked view) is held as placed.  ``leg_length_m`` as :func:`place_poses`'s."""
+    (:func:`pelvis_target`), the same re-solve with the thighs, calves and feet of the median lengths over the track's
+    frames so far (at most :data:`LIVE_LENGTHS_FRAMES`), and the heels placed as :func:`place_poses` places them,
+    causally (:meth:`place`).  A frame without a track, a floor or time that runs backwards starts the history
+    afresh; a pose the tracker held (the same points and angles as the last one placed: a blanked view) is held as
+    placed.  ``leg_length_m`` as :func:`place_poses`'s."""
 
     def __init__(self, *, mounting: str = "facing_user", window_s: float = PLACE_WINDOW_S,
                  leg_length_m: float | None = None) -> None:
@@ -557,18 +585,72 @@ class LivePelvis:
         self.leg_length_m = check_leg_length(leg_length_m)
         self.window_s = float(window_s)
         self._history: deque[tuple[float, FloatArray]] = deque()
-        self._lengths = np.zeros((LIVE_LENGTHS_FRAMES, 2, 2))  # a ring of the frames' (thigh, calf) per leg
+        self._lengths = np.zeros((LIVE_LENGTHS_FRAMES, 2, 3))  # a ring of the frames' (thigh, calf, foot) per leg
         self._n_lengths = 0  # frames in it, this track
+        self._shoes = (_live_shoe(), _live_shoe())
         self._last: tuple[LegPose, LegPose] | None = None  # the last pose placed, as given and as placed
 
     def reset(self) -> None:
         self._history.clear()
         self._n_lengths = 0
+        self._shoes = (_live_shoe(), _live_shoe())
         self._last = None
+
+    def _shoe_frame(self, body: FloatArray, rise: FloatArray, turn: FloatArray
+                    ) -> tuple[FloatArray, FloatArray, NDArray[np.bool_]]:
+        """This frame's ``(2,)`` foot pitch and heading (NaN: not measured) and which feet show their shoe cleanly,
+        from the track's frames so far: :func:`shoe_pitch` and :func:`shoe_heading` made causal (the heading is
+        carried into a heel rise, not back to a heel strike)."""
+        pitch, heading = np.full(2, np.nan), np.full(2, np.nan)
+        clean = np.zeros(2, dtype=bool)
+        for side, shoe in enumerate(self._shoes):
+            heel_down = body[side, HEEL, 2] < SHOE_FLAT_HEIGHT_M
+            toe_down = body[side, TOE, 2] < SHOE_FLAT_HEIGHT_M
+            if heel_down and toe_down and math.isfinite(rise[side]):
+                shoe.rises.append(float(rise[side]))
+            if len(shoe.rises) >= SHOE_FLAT_FRAMES:
+                r = np.asarray(shoe.rises)
+                own = float(np.median(r))
+                if float(np.median(np.abs(r - own))) <= SHOE_RISE_MAD:
+                    clean[side] = True
+                    pitch[side] = own - rise[side]
+            flat = heel_down and toe_down and math.isfinite(turn[side])
+            if flat:
+                d = body[side, TOE, :2] - body[side, HEEL, :2]
+                h = math.atan2(float(d[1]), float(d[0])) + float(turn[side])
+                shoe.turns.append(float(turn[side]))
+                if shoe.stance:
+                    shoe.jumps.append(abs(float(_wrap(h - shoe.stance[-1]))))
+                shoe.stance.append(h)
+            elif shoe.stance:  # a stance ended: its last frames' heading goes on while the foot pivots on its toes
+                steady = _steady(shoe.stance)
+                shoe.carry = _mean_angle(shoe.stance[-SHOE_CARRY_FRAMES:]) if steady else math.nan
+                shoe.stance = []
+            if not flat and not toe_down:
+                shoe.carry = math.nan
+            if (len(shoe.turns) >= SHOE_FLAT_FRAMES and shoe.jumps
+                    and float(np.median(shoe.jumps)) <= SHOE_TURN_JUMP
+                    and float(np.median(np.abs(shoe.turns))) <= SHOE_TURN_MAX):
+                clean[side] = True
+                if flat and _steady(shoe.stance):
+                    heading[side] = float(_wrap(shoe.stance[-1]))
+                elif not flat:
+                    heading[side] = shoe.carry
+        return pitch, heading, clean
 
     def place(self, pose: LegPose, floor: FloorPlane) -> LegPose:
         """``pose`` (camera frame) with its pelvis placed (the walker frame of ``floor``); as given where it cannot
-        be (no track, no valid floor)."""
+        be (no track, no valid floor).
+
+        A foot whose shoe the track has shown cleanly so far (its rise calibrated as :func:`shoe_pitch` does, or its
+        heading steady as :func:`shoe_heading` asks, over at least :data:`SHOE_FLAT_FRAMES` flat frames) has its heel
+        placed behind its toe at the track's median foot length so far, at the pitch its shoe shows and, on flat
+        frames and the heel rise after them, along the heading its shoe shows; the pose's shoe measures
+        (``shoe_rise``, ``shoe_turn``) are what shows it.  Other heels stay the tracker's: under a trouser hem the
+        tracked shoe is short, and a median of it keeps that where the frames that see the heel do not (on the
+        synthetic sessions' baggy trousers the heels were 0.5 cm worse placed; DEVELOPERS.md, sixty-first session).
+        The toes and ankles stay the tracker's bit for bit, and a pose whose heels moved keeps the tracker's as
+        ``heel_tracked`` (what the gait analysis reads, :meth:`LegPose.as_tracked`)."""
         if not _placeable(pose) or not (floor.valid and np.all(np.isfinite(floor.normal))
                                         and math.isfinite(floor.offset)):
             if pose.status in (TrackStatus.NO_USER, TrackStatus.SEARCHING):
@@ -580,7 +662,8 @@ class LivePelvis:
                 and np.array_equal(self._last[0].angles, pose.angles):
             # the tracker held its last pose (a blanked view): so is the placed one
             held = self._last[1]
-            return with_points(pose, np.array(held.points, dtype=np.float64), angles=held.angles)
+            return dataclasses.replace(with_points(pose, np.array(held.points, dtype=np.float64), angles=held.angles),
+                                       heel_tracked=held.heel_tracked)
         rot, t = floor.walker_transform()
         walker = moved_pose(pose, rot, t)
         sample = support_sample(np.asarray(walker.points, dtype=np.float64) @ self._flip.T)
@@ -597,16 +680,26 @@ class LivePelvis:
             target[:2] += coef[1] - samples[:, :2].mean(axis=0)
         body = np.asarray(walker.points, dtype=np.float64) @ self._flip.T
         self._lengths[self._n_lengths % LIVE_LENGTHS_FRAMES] = np.linalg.norm(
-            body[:, [HIP, KNEE]] - body[:, [KNEE, ANKLE]], axis=-1)
+            body[:, [HIP, KNEE, TOE]] - body[:, [KNEE, ANKLE, HEEL]], axis=-1)
         self._n_lengths += 1
-        legs = np.median(self._lengths[: min(self._n_lengths, LIVE_LENGTHS_FRAMES)].reshape(-1, 2), axis=0)
+        lengths = np.median(self._lengths[: min(self._n_lengths, LIVE_LENGTHS_FRAMES)].reshape(-1, 3), axis=0)
+
+        def measured(value: FloatArray | None) -> FloatArray:
+            return np.full(2, np.nan) if value is None else np.asarray(value, dtype=np.float64).reshape(2)
+
+        pitch, heading, clean = self._shoe_frame(body, measured(pose.shoe_rise), measured(pose.shoe_turn))
+        if not clean.any():
+            lengths[2] = np.nan  # every heel as tracked
         new, placed = _solve(body[None], np.asarray(pose.angles)[None], target[None], self.leg_length_m,
-                             np.array([[*legs, np.nan]]))
-        # the new hips and knees back in the camera frame; the feet stay the tracker's (the gait analyzer's) bit for
-        # bit
+                             lengths[None], pitch[None], heading[None], heel_sides=clean[None])
+        # the new hips, knees and placed heels back in the camera frame; the ankles, toes and other heels stay the
+        # tracker's bit for bit
         pts = np.array(pose.points, dtype=np.float64, copy=True)
         pts[:, [HIP, KNEE]] = (placed[0][:, [HIP, KNEE]] @ self._flip - t) @ rot
+        pts[clean, HEEL] = (placed[0][clean, HEEL] @ self._flip - t) @ rot
         out = with_points(pose, pts, angles=lm.joint_angles(new[0]))
+        if clean.any() and pose.heel_tracked is None:  # what the gait analysis reads (LegPose.as_tracked)
+            out = dataclasses.replace(out, heel_tracked=np.array(pose.points[:, HEEL], dtype=np.float64))
         self._last = (pose, out)
         return out
 
@@ -619,12 +712,13 @@ def moved_pose(pose: LegPose, rot: FloatArray, t: FloatArray) -> LegPose:
 
 def _solve(points: FloatArray, angles: FloatArray, target: FloatArray, leg_length_m: float | None,
            lengths: FloatArray, foot_pitch: FloatArray | None = None,
-           foot_heading: FloatArray | None = None) -> tuple[FloatArray, FloatArray]:
+           foot_heading: FloatArray | None = None,
+           heel_sides: NDArray[np.bool_] | None = None) -> tuple[FloatArray, FloatArray]:
     """Poses ``points`` ``(F, 2, 5, 3)`` (body frame) with joint ``angles`` ``(F, 12)`` placed at ``target`` ``(F, 3)``
     (:func:`pelvis_target`'s x, y, azimuth) with the thigh, calf and foot ``lengths`` ``(F, 3)`` of their tracks
     (:func:`segment_lengths`; NaN: as tracked, a NaN foot in any row: every heel as tracked), the thighs and calves
-    of ``leg_length_m`` instead if given, and each heel at ``foot_pitch`` and ``foot_heading`` ``(F, 2)`` where finite
-    (:func:`with_lengths`):
+    of ``leg_length_m`` instead if given, and each heel (of ``heel_sides`` ``(F, 2)``, if given) at ``foot_pitch`` and
+    ``foot_heading`` ``(F, 2)`` where finite (:func:`with_lengths`):
     the solved states ``(F, 23)`` and the points with the solution's hips and knees, the heels moved to the foot's
     length, the rest as given."""
     states = np.stack([pose_state(p, a) for p, a in zip(points, angles)])
@@ -635,7 +729,7 @@ def _solve(points: FloatArray, angles: FloatArray, target: FloatArray, leg_lengt
     foot = lengths[:, 2] if np.all(np.isfinite(lengths[:, 2])) else None
     states, held = with_lengths(states, held, thigh=legs[:, 0], calf=legs[:, 1], foot=foot,
                                 foot_pitch=None if foot is None else foot_pitch,
-                                foot_heading=None if foot is None else foot_heading)
+                                foot_heading=None if foot is None else foot_heading, heel_sides=heel_sides)
     if leg_length_m is not None:
         states, held = with_leg_length(states, held, leg_length_m)
     new = place_pelvis(states, held, target[:, :2], yaw=target[:, 2])

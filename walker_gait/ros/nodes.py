@@ -395,10 +395,9 @@ class LegTrackerNode(WalkerNode):
         if intr == self.intrinsics:
             return
         self.intrinsics = intr
-        # the shoes' rise and turn are for the offline placement's heels; the live placement keeps the tracker's (about
-        # 5 ms a frame saved)
+        # the shoes' rise and turn place the reported heels (LivePelvis; about 5 ms a frame on a slow 2-core computer)
         self.tracker = LegTracker(self.config, intr, rng=stage_rng(self.seed, "leg_tracker"), mounting=self.mounting,
-                                  measure_shoes=False)
+                                  measure_shoes=self.pelvis is not None)
         if self.pelvis is not None:
             self.pelvis.reset()
         while self._waiting:  # frames that were complete before the first CameraInfo
@@ -496,7 +495,9 @@ class GaitAnalyzerNode(WalkerNode):
         from walker_gait.core.gait import GaitAnalyzer
 
         self.frame_id = msg.header.frame_id
-        pose = M.leg_pose_from_track(msg)
+        # the analysis reads the tracker's own heels (the reported ones are placed: LegTrack.heel_tracked), so its
+        # steps are those of an offline one-pass run
+        pose = M.leg_pose_from_track(msg).as_tracked()
         if self._last_stamp is not None and pose.stamp < self._last_stamp - TIME_JUMP_RESET_S:
             self.get_logger().warning(
                 f"time jumped back from {self._last_stamp:.3f} s to {pose.stamp:.3f} s (replay looped or "
