@@ -382,13 +382,34 @@ def shoe_pitch(points: FloatArray, rise: FloatArray) -> FloatArray:
     for side in (0, 1):
         flat = ((pts[:, side, HEEL, 2] < SHOE_FLAT_HEIGHT_M) & (pts[:, side, TOE, 2] < SHOE_FLAT_HEIGHT_M)
                 & np.isfinite(r[:, side]))
-        if int(flat.sum()) < SHOE_FLAT_FRAMES:
-            continue
-        own = float(np.median(r[flat, side]))
-        if float(np.median(np.abs(r[flat, side] - own))) > SHOE_RISE_MAD:
-            continue
-        out[:, side] = own - r[:, side]
+        own = _own_rise(r[flat, side])
+        if math.isfinite(own):
+            out[:, side] = own - r[:, side]
     return out
+
+
+def _own_rise(rises: FloatArray) -> float:
+    """A shoe's own rise: the median of its ``rises`` on flat frames; NaN for fewer than :data:`SHOE_FLAT_FRAMES`
+    of them or ones that scatter more than :data:`SHOE_RISE_MAD` (:func:`shoe_pitch`)."""
+    r = np.asarray(rises, dtype=np.float64)
+    if len(r) < SHOE_FLAT_FRAMES:
+        return math.nan
+    own = float(np.median(r))
+    return own if float(np.median(np.abs(r - own))) <= SHOE_RISE_MAD else math.nan
+
+
+def _steady_turns(jumps: FloatArray, turns: FloatArray) -> bool:
+    """Whether a foot's measured heading is steady enough over a track's flat frames (:func:`shoe_heading`): its
+    ``jumps`` from one flat frame to the next (rad, absolute) at most :data:`SHOE_TURN_JUMP` and its ``turns`` from
+    the reported foot at most :data:`SHOE_TURN_MAX` (medians)."""
+    return (len(jumps) > 0 and float(np.median(jumps)) <= SHOE_TURN_JUMP
+            and float(np.median(np.abs(np.asarray(turns, dtype=np.float64)))) <= SHOE_TURN_MAX)
+
+
+def _steady(stance: FloatArray | list[float]) -> bool:
+    """A stretch of flat frames whose heading holds (:func:`shoe_heading`'s per-stance gate): at least two frames,
+    changing by at most :data:`SHOE_TURN_JUMP` from one to the next (the median)."""
+    return len(stance) >= 2 and float(np.median(np.abs(_wrap(np.diff(stance))))) <= SHOE_TURN_JUMP
 
 
 def _wrap(a: FloatArray) -> FloatArray:
@@ -438,12 +459,11 @@ def shoe_heading(points: FloatArray, turn: FloatArray) -> FloatArray:
         d = pts[:, side, TOE, :2] - pts[:, side, HEEL, :2]
         heading = np.arctan2(d[:, 1], d[:, 0]) + tn[:, side]
         pairs = flat[1:] & flat[:-1]
-        if (not pairs.any() or float(np.median(np.abs(_wrap(np.diff(heading)[pairs])))) > SHOE_TURN_JUMP
-                or float(np.median(np.abs(tn[flat, side]))) > SHOE_TURN_MAX):
+        if not _steady_turns(np.abs(_wrap(np.diff(heading)[pairs])), tn[flat, side]):
             continue
         col = np.where(flat, _wrap(heading), np.nan)
         for start, stop in _runs(flat):
-            if stop - start < 2 or float(np.median(np.abs(_wrap(np.diff(heading[start:stop]))))) > SHOE_TURN_JUMP:
+            if not _steady(heading[start:stop]):
                 col[start:stop] = np.nan  # one planted foot's line that sways (or a single frame, which cannot tell)
                 continue
             last = _mean_angle(heading[max(start, stop - SHOE_CARRY_FRAMES):stop])
@@ -562,11 +582,6 @@ def _live_shoe() -> _LiveShoe:
                      deque(maxlen=LIVE_LENGTHS_FRAMES))
 
 
-def _steady(stance: list[float]) -> bool:
-    """A stretch of flat frames whose heading holds (:func:`shoe_heading`'s per-stance gate)."""
-    return len(stance) >= 2 and float(np.median(np.abs(_wrap(np.diff(stance))))) <= SHOE_TURN_JUMP
-
-
 class LivePelvis:
     """:func:`place_poses` frame by frame, for the live graph: the ankles' midpoint over the last ``window_s`` (a
     straight line fitted to it against time, read at the newest frame, so a user who walks in or drifts towards the
@@ -608,12 +623,10 @@ class LivePelvis:
             toe_down = body[side, TOE, 2] < SHOE_FLAT_HEIGHT_M
             if heel_down and toe_down and math.isfinite(rise[side]):
                 shoe.rises.append(float(rise[side]))
-            if len(shoe.rises) >= SHOE_FLAT_FRAMES:
-                r = np.asarray(shoe.rises)
-                own = float(np.median(r))
-                if float(np.median(np.abs(r - own))) <= SHOE_RISE_MAD:
-                    clean[side] = True
-                    pitch[side] = own - rise[side]
+            own = _own_rise(np.asarray(shoe.rises))
+            if math.isfinite(own):
+                clean[side] = True
+                pitch[side] = own - rise[side]
             flat = heel_down and toe_down and math.isfinite(turn[side])
             if flat:
                 d = body[side, TOE, :2] - body[side, HEEL, :2]
@@ -628,9 +641,7 @@ class LivePelvis:
                 shoe.stance = []
             if not flat and not toe_down:
                 shoe.carry = math.nan
-            if (len(shoe.turns) >= SHOE_FLAT_FRAMES and shoe.jumps
-                    and float(np.median(shoe.jumps)) <= SHOE_TURN_JUMP
-                    and float(np.median(np.abs(shoe.turns))) <= SHOE_TURN_MAX):
+            if len(shoe.turns) >= SHOE_FLAT_FRAMES and _steady_turns(np.asarray(shoe.jumps), np.asarray(shoe.turns)):
                 clean[side] = True
                 if flat and _steady(shoe.stance):
                     heading[side] = float(_wrap(shoe.stance[-1]))
