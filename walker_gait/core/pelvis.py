@@ -500,6 +500,11 @@ def with_leg_length(states: FloatArray, held: FloatArray, leg_length_m: float) -
     return with_lengths(states, held, thigh=THIGH_SHARE * legs, calf=(1.0 - THIGH_SHARE) * legs)
 
 
+def _shoe_measure(value: FloatArray | None) -> FloatArray:
+    """A pose's ``shoe_rise`` or ``shoe_turn`` as ``(2,)`` (NaN: not measured)."""
+    return np.full(2, np.nan) if value is None else np.asarray(value, dtype=np.float64).reshape(2)
+
+
 def _placeable(pose: LegPose) -> bool:
     return (pose.status in (TrackStatus.TRACKING, TrackStatus.DEGRADED) and np.all(np.isfinite(pose.points))
             and np.all(np.isfinite(pose.angles)))
@@ -542,11 +547,8 @@ def place_poses(poses: Sequence[LegPose], *, mounting: str = "facing_user",
     pitch = np.full((len(idx), 2), np.nan)
     heading = np.full((len(idx), 2), np.nan)
 
-    def measured(name: str) -> FloatArray:
-        return np.stack([np.full(2, np.nan) if getattr(out[i], name) is None
-                         else np.asarray(getattr(out[i], name), dtype=np.float64) for i in idx])
-
-    rise, turn = measured("shoe_rise"), measured("shoe_turn")
+    rise = np.stack([_shoe_measure(out[i].shoe_rise) for i in idx])
+    turn = np.stack([_shoe_measure(out[i].shoe_turn) for i in idx])
     for t in np.unique(track):
         lengths[track == t] = segment_lengths(body[track == t])
         pitch[track == t] = shoe_pitch(body[track == t], rise[track == t])
@@ -694,11 +696,7 @@ class LivePelvis:
             body[:, [HIP, KNEE, TOE]] - body[:, [KNEE, ANKLE, HEEL]], axis=-1)
         self._n_lengths += 1
         lengths = np.median(self._lengths[: min(self._n_lengths, LIVE_LENGTHS_FRAMES)].reshape(-1, 3), axis=0)
-
-        def measured(value: FloatArray | None) -> FloatArray:
-            return np.full(2, np.nan) if value is None else np.asarray(value, dtype=np.float64).reshape(2)
-
-        pitch, heading, clean = self._shoe_frame(body, measured(pose.shoe_rise), measured(pose.shoe_turn))
+        pitch, heading, clean = self._shoe_frame(body, _shoe_measure(pose.shoe_rise), _shoe_measure(pose.shoe_turn))
         if not clean.any():
             lengths[2] = np.nan  # every heel as tracked
         new, placed = _solve(body[None], np.asarray(pose.angles)[None], target[None], self.leg_length_m,
