@@ -573,6 +573,49 @@ def test_shoe_heading_is_the_reported_heading_turned_on_flat_frames() -> None:
     np.testing.assert_allclose(pv.shoe_heading(pts, astray)[:, 1], np.radians(2.0), atol=1e-12)
 
 
+
+def test_a_heading_is_carried_through_a_heel_rise_whose_tip_is_held_off_the_floor() -> None:
+    """The tracker holds a pivoting foot's tip a few centimetres up: the heading measured flat is carried into the heel
+    rise while the reported toe stays below :data:`SHOE_CARRY_TOE_M` (3 cm here; at the flat frames' 2 cm the carry
+    broke off there), and no further than the toe off (the toe 6 cm up)."""
+    n = 40
+    pts = np.zeros((n, 2, 5, 3))
+    pts[:, :, TOE, 0] = 0.26
+    pts[15:25, 0, HEEL, 2] = np.linspace(0.03, 0.15, 10)  # the left heel rises ...
+    pts[19:25, 0, TOE, 2] = 0.03  # ... its tip held 3 cm up from the fifth frame of it
+    pts[25:30, 0, [HEEL, TOE], 2] = 0.06  # the toe off
+    turn = np.full((n, 2), np.radians(3.0))
+    got = pv.shoe_heading(pts, turn)
+    np.testing.assert_allclose(got[:25, 0], np.radians(3.0))
+    assert np.all(np.isnan(got[25:30, 0]))
+    assert pv.SHOE_FLAT_HEIGHT_M < 0.03 < pv.SHOE_CARRY_TOE_M
+
+
+def test_live_heel_rise_keeps_the_heading_its_shoe_showed_flat() -> None:
+    """Live: the heel rise after a flat stance whose shoe showed its heading keeps that heading (within 0.6 deg, the
+    tracker 7 deg off) while the tracker holds the toe 3 cm up, and is the tracker's again after the toe off."""
+    n = 30
+    true = _state([0, 2, 0, 5, 5, 0, 0, 2, 0, 5, 5, 0])
+    x = _state([0, 2, 7.0, 5, 5, 0, 0, 2, 0, 5, 5, 0])
+    base = lm.forward_kinematics(x).points[0] @ FLIP
+    want = _heading(lm.forward_kinematics(true).points[0])[0]
+    turn = np.column_stack([np.full(n, want - _heading(base @ FLIP)[0]), np.zeros(n)])
+    turn[15:, 0] = np.nan  # not flat: not measured
+    poses = []
+    for i in range(n):
+        pts = base.copy()
+        if 15 <= i < 25:  # the left heel rises with the tip held 3 cm up
+            pts[0, HEEL, 2] += 0.02 + 0.01 * (i - 15)
+            pts[0, TOE, 2] = 0.03
+        elif i >= 25:  # the toe off
+            pts[0, [HEEL, TOE], 2] += 0.08
+        poses.append(LegPose(stamp=i / 30.0, points=pts, angles=lm.joint_angles(x), segments=np.zeros((2, 3, 2, 3)),
+                             shoe_turn=turn[i]))
+    _, _, after = _live(poses)
+    err = np.degrees(np.abs(_heading(after)[:, 0] - want))
+    assert np.all(err[pv.SHOE_FLAT_FRAMES:25] < 0.6)
+    assert np.all(err[25:] > 5.0)
+
 def _live(poses: list[LegPose]) -> tuple[list[LegPose], list[LegPose], np.ndarray]:
     """``poses`` (walker frame) given to a fresh :class:`LivePelvis` in the camera frame of :func:`_floor`, frame by
     frame: the camera-frame poses given and placed, and the placed points in the body frame.  Each frame's hips are

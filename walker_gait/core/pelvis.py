@@ -136,6 +136,12 @@ SHOE_CARRY_FRAMES = 5
 """A foot's heading measured flat is carried into the frames of its heel rise (the foot pivots about its toes) and
 back into those after its heel strike (it pivots about its heel) as the mean of this many flat frames next to them
 (:func:`shoe_heading`)."""
+SHOE_CARRY_TOE_M = 0.04
+"""A heading is carried into a heel rise while the reported toe stays lower than this (m above the floor): the toe
+stays planted until the toe off, but the tracker holds a pivoting foot's tip up to a few centimetres off the floor
+(a quarter of the heel-rise tips over 1 cm up: DEVELOPERS.md, thirty-third session), and at :data:`SHOE_FLAT_HEIGHT_M` the carry
+broke off in 13 % of the heel-rise frames of the sweep set C's clean sessions, whose heading was then the tracker's
+(10 deg RMS off against 1 deg carried).  DEVELOPERS.md, sixty-second session."""
 SHOE_TURN_JUMP = math.radians(2.0)
 """Largest median change (rad) of a shoe's measured heading from one flat frame to the next for its centre line to
 be taken as the foot's heading (:func:`shoe_heading`): a planted foot does not turn, and a shoe seen clearly gives
@@ -432,7 +438,7 @@ def shoe_heading(points: FloatArray, turn: FloatArray) -> FloatArray:
     heading turned by ``turn`` ``(F, 2)`` (:func:`walker_gait.core.feet.measure_shoe_turn`, NaN unmeasured) in the
     frames whose reported foot stands flat (heel and toe below :data:`SHOE_FLAT_HEIGHT_M`); carried from there
     (the mean of the :data:`SHOE_CARRY_FRAMES` flat frames next to them) into the following frames whose toe stays
-    down (the heel rise: the foot pivots about its toes) and the frames before whose heel is down (after the heel
+    below :data:`SHOE_CARRY_TOE_M` (the heel rise: the foot pivots about its toes) and the frames before whose heel is down (after the heel
     strike: it pivots about its heel).  NaN elsewhere, and:
 
     * for a foot with fewer than :data:`SHOE_FLAT_FRAMES` flat frames measured;
@@ -453,6 +459,7 @@ def shoe_heading(points: FloatArray, turn: FloatArray) -> FloatArray:
     for side in (0, 1):
         heel_down = pts[:, side, HEEL, 2] < SHOE_FLAT_HEIGHT_M
         toe_down = pts[:, side, TOE, 2] < SHOE_FLAT_HEIGHT_M
+        toe_planted = pts[:, side, TOE, 2] < SHOE_CARRY_TOE_M
         flat = heel_down & toe_down & np.isfinite(tn[:, side])
         if int(flat.sum()) < SHOE_FLAT_FRAMES:
             continue
@@ -468,7 +475,7 @@ def shoe_heading(points: FloatArray, turn: FloatArray) -> FloatArray:
                 continue
             last = _mean_angle(heading[max(start, stop - SHOE_CARRY_FRAMES):stop])
             j = stop
-            while j < len(pts) and toe_down[j] and not flat[j]:
+            while j < len(pts) and toe_planted[j] and not flat[j]:
                 col[j] = last
                 j += 1
             first = _mean_angle(heading[start:min(stop, start + SHOE_CARRY_FRAMES)])
@@ -641,7 +648,7 @@ class LivePelvis:
                 steady = _steady(shoe.stance)
                 shoe.carry = _mean_angle(shoe.stance[-SHOE_CARRY_FRAMES:]) if steady else math.nan
                 shoe.stance = []
-            if not flat and not toe_down:
+            if not flat and not body[side, TOE, 2] < SHOE_CARRY_TOE_M:  # the toe off: the heel rise is over
                 shoe.carry = math.nan
             if len(shoe.turns) >= SHOE_FLAT_FRAMES and _steady_turns(np.asarray(shoe.jumps), np.asarray(shoe.turns)):
                 clean[side] = True
