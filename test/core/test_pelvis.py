@@ -616,6 +616,45 @@ def test_live_heel_rise_keeps_the_heading_its_shoe_showed_flat() -> None:
     assert np.all(err[pv.SHOE_FLAT_FRAMES:25] < 0.6)
     assert np.all(err[25:] > 5.0)
 
+
+def test_a_foot_standing_on_its_heel_is_reported_with_the_heel_on_the_floor() -> None:
+    """A reported foot whose toe is higher than its heel and whose heel is below :data:`HEEL_ON_FLOOR_M` (landed on
+    its heel, or flat with its heel a little up or below the floor) has its heel turned about the toe onto the floor at
+    the foot's length and heading; a foot in the air (heel 6 cm up) and one in its heel rise (toe down) keep theirs."""
+    length = 0.26
+    toe_up = np.radians(11.0)
+    cases = {  # heel (x, y, z) and toe-up pitch of each foot
+        "landing": ((0.0, 0.10, 0.015), toe_up),
+        "below the floor": ((0.0, -0.10, -0.008), np.radians(2.0)),
+        "in the air": ((0.1, 0.10, 0.06), toe_up),
+        "heel rise": ((0.1, -0.10, 0.03), -np.radians(7.0)),
+    }
+    names = list(cases)
+    held = np.zeros((2, 2, 4, 3))
+    for k, name in enumerate(names):
+        heel, pitch = cases[name]
+        f, side = divmod(k, 2)
+        heading = np.radians(8.0 * (k + 1))
+        held[f, side, 2] = heel
+        held[f, side, 3] = np.asarray(heel) + length * np.array([np.cos(pitch) * np.cos(heading),
+                                                                 np.cos(pitch) * np.sin(heading), np.sin(pitch)])
+        held[f, side, 1] = held[f, side, 2] + [0.05, 0.0, 0.08]  # the ankle
+        held[f, side, 0] = held[f, side, 1] + [0.0, 0.0, 0.4]  # the knee
+    x = np.repeat(_state([0] * 12)[None], 2, axis=0)
+    _, out = pv.with_lengths(x, held, thigh=x[:, L.LEN_THIGH], calf=x[:, L.LEN_CALF], foot=np.full(2, length))
+    for k, name in enumerate(names):
+        f, side = divmod(k, 2)
+        heel, toe = out[f, side, 2], held[f, side, 3]
+        assert np.linalg.norm(toe - heel) == pytest.approx(length, abs=1e-9), name
+        before = held[f, side, 3, :2] - held[f, side, 2, :2]
+        after = toe[:2] - heel[:2]
+        assert np.arctan2(after[1], after[0]) == pytest.approx(np.arctan2(before[1], before[0]), abs=1e-9), name
+        if name in ("landing", "below the floor"):
+            assert heel[2] == pytest.approx(0.0, abs=1e-12), name
+        else:
+            np.testing.assert_allclose(heel, held[f, side, 2], atol=1e-12, err_msg=name)
+    assert pv.HEEL_ON_FLOOR_M > 0.015
+
 def _live(poses: list[LegPose]) -> tuple[list[LegPose], list[LegPose], np.ndarray]:
     """``poses`` (walker frame) given to a fresh :class:`LivePelvis` in the camera frame of :func:`_floor`, frame by
     frame: the camera-frame poses given and placed, and the placed points in the body frame.  Each frame's hips are

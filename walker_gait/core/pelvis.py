@@ -142,6 +142,14 @@ stays planted until the toe off, but the tracker holds a pivoting foot's tip up 
 (a quarter of the heel-rise tips over 1 cm up: DEVELOPERS.md, thirty-third session), and at :data:`SHOE_FLAT_HEIGHT_M` the carry
 broke off in 13 % of the heel-rise frames of the sweep set C's clean sessions, whose heading was then the tracker's
 (10 deg RMS off against 1 deg carried).  DEVELOPERS.md, sixty-second session."""
+HEEL_ON_FLOOR_M = 0.04
+"""A reported foot whose toe is higher than its heel and whose heel is lower than this (m above the floor) stands on
+its heel: flat, or landed on it and pivoting about it to foot flat.  Its heel is put on the floor, turned about the
+toe at the foot's length (:func:`with_lengths`).  The toe's height is the tracker's, which stands a flat foot's toe a
+few millimetres up, and the shoe's rise reads a landing foot's toe-up pitch short (3.4 deg on the sweep set C's
+clean sessions, more the steeper the landing): the heel of a flat foot was reported 0.6 cm up and a landing one's
+1.6 cm.  A foot about to land, its heel a few centimetres up with its toe higher, is put down a frame or two early.
+DEVELOPERS.md, sixty-second session."""
 SHOE_TURN_JUMP = math.radians(2.0)
 """Largest median change (rad) of a shoe's measured heading from one flat frame to the next for its centre line to
 be taken as the foot's heading (:func:`shoe_heading`): a planted foot does not turn, and a shoe seen clearly gives
@@ -365,10 +373,24 @@ def with_lengths(states: FloatArray, held: FloatArray, *, thigh: float | FloatAr
             p = np.nan_to_num(pitch)[..., None]
             aimed = h[:, :, 3] + np.concatenate([np.cos(p) * flat, -np.sin(p)], axis=-1)  # one metre behind the toe
             toward = np.where(np.isfinite(pitch)[..., None], aimed, toward)
-        moved = _along(h[:, :, 3], toward, x[:, L.LEN_FOOT], _BACK)
+        moved = _on_heel(h[:, :, 3], _along(h[:, :, 3], toward, x[:, L.LEN_FOOT], _BACK))
         h[:, :, 2] = moved if heel_sides is None else np.where(
             np.asarray(heel_sides, dtype=bool).reshape(len(x), 2)[..., None], moved, h[:, :, 2])
     return x, h
+
+
+def _on_heel(toe: FloatArray, heel: FloatArray) -> FloatArray:
+    """``heel`` ``(..., 3)`` (body frame) with each foot that stands on its heel (:data:`HEEL_ON_FLOOR_M`: its toe
+    higher than its heel, its heel lower than that) turned about its ``toe`` until the heel is on the floor, the
+    heel-to-toe distance and the heading kept."""
+    back = heel - toe
+    length = np.linalg.norm(back, axis=-1)
+    flat = np.linalg.norm(back[..., :2], axis=-1)
+    on = ((heel[..., 2] < HEEL_ON_FLOOR_M) & (toe[..., 2] > heel[..., 2]) & (toe[..., 2] < length)
+          & (flat > 1e-9))
+    run = np.sqrt(np.maximum(length**2 - toe[..., 2] ** 2, 0.0)) / np.maximum(flat, 1e-9)
+    down = np.concatenate([toe[..., :2] + back[..., :2] * run[..., None], np.zeros_like(run)[..., None]], axis=-1)
+    return np.where(on[..., None], down, heel)
 
 
 def shoe_pitch(points: FloatArray, rise: FloatArray) -> FloatArray:
