@@ -139,9 +139,9 @@ back into those after its heel strike (it pivots about its heel) as the mean of 
 SHOE_CARRY_TOE_M = 0.04
 """A heading is carried into a heel rise while the reported toe stays lower than this (m above the floor): the toe
 stays planted until the toe off, but the tracker holds a pivoting foot's tip up to a few centimetres off the floor
-(a quarter of the heel-rise tips over 1 cm up: DEVELOPERS.md, thirty-third session), and at :data:`SHOE_FLAT_HEIGHT_M` the carry
-broke off in 13 % of the heel-rise frames of the sweep set C's clean sessions, whose heading was then the tracker's
-(10 deg RMS off against 1 deg carried).  DEVELOPERS.md, sixty-second session."""
+(a quarter of the heel-rise tips over 1 cm up: DEVELOPERS.md, thirty-third session), and at
+:data:`SHOE_FLAT_HEIGHT_M` the carry broke off in 13 % of the heel-rise frames of the sweep set C's clean sessions,
+whose heading was then the tracker's (10 deg RMS off against 1 deg carried).  DEVELOPERS.md, sixty-second session."""
 HEEL_ON_FLOOR_M = 0.04
 """A reported foot whose toe is higher than its heel and whose heel is lower than this (m above the floor) stands on
 its heel: flat, or landed on it and pivoting about it to foot flat.  Its heel is put on the floor, turned about the
@@ -460,8 +460,8 @@ def shoe_heading(points: FloatArray, turn: FloatArray) -> FloatArray:
     heading turned by ``turn`` ``(F, 2)`` (:func:`walker_gait.core.feet.measure_shoe_turn`, NaN unmeasured) in the
     frames whose reported foot stands flat (heel and toe below :data:`SHOE_FLAT_HEIGHT_M`); carried from there
     (the mean of the :data:`SHOE_CARRY_FRAMES` flat frames next to them) into the following frames whose toe stays
-    below :data:`SHOE_CARRY_TOE_M` (the heel rise: the foot pivots about its toes) and the frames before whose heel is down (after the heel
-    strike: it pivots about its heel).  NaN elsewhere, and:
+    below :data:`SHOE_CARRY_TOE_M` (the heel rise: the foot pivots about its toes) and the frames before whose heel
+    is down (after the heel strike: it pivots about its heel).  NaN elsewhere, and:
 
     * for a foot with fewer than :data:`SHOE_FLAT_FRAMES` flat frames measured;
     * for a foot whose measured heading changes by more than :data:`SHOE_TURN_JUMP` from one flat frame to the next
