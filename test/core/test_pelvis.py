@@ -573,7 +573,6 @@ def test_shoe_heading_is_the_reported_heading_turned_on_flat_frames() -> None:
     np.testing.assert_allclose(pv.shoe_heading(pts, astray)[:, 1], np.radians(2.0), atol=1e-12)
 
 
-
 def test_a_heading_is_carried_through_a_heel_rise_whose_tip_is_held_off_the_floor() -> None:
     """The tracker holds a pivoting foot's tip a few centimetres up: the heading measured flat is carried into the heel
     rise while the reported toe stays below :data:`SHOE_CARRY_TOE_M` (3 cm here; at the flat frames' 2 cm the carry
@@ -654,6 +653,7 @@ def test_a_foot_standing_on_its_heel_is_reported_with_the_heel_on_the_floor() ->
         else:
             np.testing.assert_allclose(heel, held[f, side, 2], atol=1e-12, err_msg=name)
     assert pv.HEEL_ON_FLOOR_M > 0.015
+
 
 def _live(poses: list[LegPose]) -> tuple[list[LegPose], list[LegPose], np.ndarray]:
     """``poses`` (walker frame) given to a fresh :class:`LivePelvis` in the camera frame of :func:`_floor`, frame by
