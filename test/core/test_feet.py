@@ -315,6 +315,58 @@ def test_a_shoe_turned_heel_up_rises_by_its_pitch() -> None:
         assert abs(got[1] - flat_rise) < np.radians(1.0), np.degrees(got[1])
 
 
+def _thick_upper(toe: np.ndarray, heading: float, pitch: float, rng: np.random.Generator, n: int = 3000) -> np.ndarray:
+    """Points on a shoe's upper as a depth camera above its front sees it: 24 cm long, 9 cm wide, its top rising from
+    3 cm over the sole at the toe box by 7 cm every 16 cm, each cross-section a half ellipse down to the sole (its
+    sides), the shoe turned about its toe tip heel-up by ``pitch`` and headed ``heading`` (rad) on the floor."""
+    s = rng.uniform(0.0, 0.24, n)
+    w = rng.uniform(-0.045, 0.045, n)
+    h = (0.03 + 0.07 * s / 0.16) * np.sqrt(1.0 - (w / 0.045) ** 2) + rng.normal(0.0, 0.001, n)
+    back = -s * np.cos(pitch) + h * np.sin(pitch)
+    up = s * np.sin(pitch) + h * np.cos(pitch)
+    c, si = np.cos(heading), np.sin(heading)
+    return np.column_stack([toe[0] + back * c - w * si, toe[1] + back * si + w * c, up])
+
+
+def test_a_heel_up_shoes_upper_is_taken_up_to_its_limit_over_the_tracked_sole() -> None:
+    """A shoe heel-up lifts the back of its upper past a height limit level with its toe; cut off there, the slope
+    fitted to what is left reads the rise short (and the more so the higher the heel).  The limit runs along the
+    tracked foot's heel-to-toe line instead (lowered by ``sole_from``): with the tracked heel where the real one is,
+    the rise is the flat shoe's plus the pitch within a degree at 20 deg heel-up and 2.5 at 25 (the lowered limit
+    still cuts the back), where a level limit reads it 3 and 6 deg short or more.  A flat or toe-up foot is measured
+    as with the level limit, and the shoe's turn whatever the limit of the rise."""
+    rng = np.random.default_rng(12)
+    toes = np.array([[0.30, 0.08, 0.0], [0.25, -0.05, 0.0]])
+    heading = np.array([0.1, 0.0])
+    flat_heels = toes - 0.26 * np.column_stack([np.cos(heading), np.sin(heading), np.zeros(2)])
+    level = ShoeRiseFit(along_sole=False)
+    pts = np.vstack([_thick_upper(toes[0], 0.1, 0.0, rng), _thick_upper(toes[1], 0.0, 0.0, rng)])
+    flat = measure_shoe_rise(_legs(flat_heels, toes), pts)
+    np.testing.assert_array_equal(flat, measure_shoe_rise(_legs(flat_heels, toes), pts, fit=level))
+    for pitch_deg, within, short in ((20.0, 1.0, 3.0), (25.0, 2.5, 6.0)):
+        p = np.radians(pitch_deg)
+        pts = np.vstack([_thick_upper(toes[0], 0.1, p, rng), _thick_upper(toes[1], 0.0, 0.0, rng)])
+        heels = flat_heels.copy()
+        heels[0, 2] = 0.26 * np.sin(p)
+        legs = _legs(heels, toes)
+        along = measure_shoe_rise(legs, pts)
+        cut = measure_shoe_rise(legs, pts, fit=level)
+        err_along, err_cut = along[0] - (flat[0] + p), cut[0] - (flat[0] + p)
+        assert abs(err_along) < np.radians(within), np.degrees(err_along)
+        assert err_cut < -np.radians(short), np.degrees(err_cut)
+        assert along[1] == cut[1]  # the flat shoe beside it
+        _, turn = measure_shoes(legs, pts)
+        np.testing.assert_array_equal(turn, measure_shoe_turn(legs, pts))
+    held_up = flat_heels + np.array([[0.0, 0.0, 0.03], [0.0, 0.0, 0.0]])  # a flat foot whose heel the tracker holds up
+    np.testing.assert_array_equal(measure_shoe_rise(_legs(held_up, toes), pts),
+                                  measure_shoe_rise(_legs(held_up, toes), pts, fit=level))
+    with pytest.raises(ValueError, match="sole_from"):
+        ShoeRiseFit(sole_from=-0.01)
+    toe_up = _legs(flat_heels, toes + np.array([[0.0, 0.0, 0.05], [0.0, 0.0, 0.0]]))
+    pts = np.vstack([_thick_upper(toes[0], 0.1, -0.2, rng), _thick_upper(toes[1], 0.0, 0.0, rng)])
+    np.testing.assert_array_equal(measure_shoe_rise(toe_up, pts), measure_shoe_rise(toe_up, pts, fit=level))
+
+
 def test_a_shoe_without_enough_upper_in_view_is_not_measured() -> None:
     rng = np.random.default_rng(8)
     toes = np.array([[0.30, 0.08, 0.0], [0.05, -0.08, 0.0]])
