@@ -235,10 +235,9 @@ class ShoeStretch:
 
     min_height: float = 0.03  # lowest point used: the segmentation's floor cut
     above_toe: float = 0.14  # highest: this far above the tracked toe (the shoe's upper, below a trouser's hem) ...
-    along_sole: bool = False  # ... or this far above the tracked foot's heel-to-toe line lowered by sole_from: a
-    # heel-up foot's upper rises with it, and a limit level with the toe cuts the back of a steep one off
-    sole_from: float = 0.04  # a heel up to this much higher than its toe leaves the limit level (the filter holds flat
-    # feet a few degrees heel-up: their shoes are measured, and calibrated, as before)
+    sole_from: float | None = None  # ... or, once the tracked heel is more than this above its toe, this far above the
+    # foot's heel-to-toe line lowered by this: a heel-up foot's upper rises with it, and a limit level with the toe cuts
+    # the back of a steep one off (None: level; a heel held a few cm up on a flat foot leaves it level)
     behind: float = 0.14  # the stretch of the shoe measured: this far behind the tracked toe along the foot ...
     ahead: float = 0.03  # ... to this far ahead of it
     half_width: float = 0.06  # and this far either side of the foot's line
@@ -251,8 +250,8 @@ class ShoeStretch:
                              f"{self.min_height}, {self.above_toe}, {self.behind}, {self.ahead}, {self.half_width}")
         if self.min_points < 3:
             raise ValueError(f"min_points must be >= 3, got {self.min_points}")
-        if not self.sole_from >= 0.0:
-            raise ValueError(f"sole_from must be >= 0, got {self.sole_from}")
+        if self.sole_from is not None and not self.sole_from >= 0.0:
+            raise ValueError(f"sole_from must be None or >= 0, got {self.sole_from}")
 
     @property
     def reach(self) -> float:
@@ -263,40 +262,40 @@ class ShoeStretch:
 @dataclass(frozen=True, kw_only=True)
 class ShoeRiseFit(ShoeStretch):
     """Parameters of :func:`measure_shoe_rise` (metres): the upper behind the toe, up to ``above_toe`` over the tracked
-    foot's heel-to-toe line once its heel is more than ``sole_from`` above its toe (``along_sole``).  A heel-up
+    foot's heel-to-toe line once its heel is more than ``sole_from`` above its toe.  A heel-up
     shoe's back rises past a limit level with its toe, and the least-squares slope of what is left reads the rise
     short: on synthetic sessions with feet turned out 14-20 deg the pitch read 8 deg short at 30-45 deg heel-up, and
     the heels in heel rise were 3.6 cm off (2.8 with the limit along the sole; DEVELOPERS.md, sixty-third session)."""
 
-    along_sole: bool = True
+    sole_from: float | None = 0.04  # the filter holds flat feet 0-3 cm heel-up: their shoes measured as before
 
 
-def _tops(legs: FloatArray, along_sole: bool, sole_from: float) -> FloatArray:
+def _tops(legs: FloatArray, sole_from: float | None) -> FloatArray:
     """``(2,)`` per side, the height the highest point of a stretch can reach (less its ``above_toe``): the tracked
-    toe's, or with ``along_sole`` the higher of its toe's and its heel's less ``sole_from`` (:class:`ShoeStretch`)."""
+    toe's, or the higher of its toe's and its heel's less ``sole_from`` (:class:`ShoeStretch`)."""
     top = legs[:, TOE, 2]
-    return np.maximum(top, legs[:, HEEL, 2] - sole_from) if along_sole else top
+    return top if sole_from is None else np.maximum(top, legs[:, HEEL, 2] - sole_from)
 
 
 def _shoe_band(legs: FloatArray, pts: FloatArray, *, min_height: float, above_toe: float, reach: float,
-               along_sole: bool = False, sole_from: float = 0.0) -> FloatArray:
+               sole_from: float | None = None) -> FloatArray:
     """The foreground ``pts`` that can be on either shoe's upper: between ``min_height`` and ``above_toe`` over the
     higher top (:func:`_tops`), within ``reach`` of the toes in x and y (most of the foreground, the shins above, is
     gone before the distances)."""
     toes = legs[:, TOE]
     x, y, z = pts[:, 0], pts[:, 1], pts[:, 2]
     lo, hi = toes[:, :2].min(axis=0) - reach, toes[:, :2].max(axis=0) + reach
-    return pts[(z > min_height) & (z < float(_tops(legs, along_sole, sole_from).max()) + above_toe)
+    return pts[(z > min_height) & (z < float(_tops(legs, sole_from).max()) + above_toe)
                & (x > lo[0]) & (x < hi[0]) & (y > lo[1]) & (y < hi[1])]
 
 
 def _near_toes(legs: FloatArray, band: FloatArray, *, above_toe: float, reach: float,
-               along_sole: bool = False, sole_from: float = 0.0) -> list[FloatArray]:
+               sole_from: float | None = None) -> list[FloatArray]:
     """Per side, the points of ``band`` (:func:`_shoe_band`) up to ``above_toe`` over its top (:func:`_tops`) and
     within ``reach`` of the tracked toe in x and y."""
     bx, by, bz = band[:, 0], band[:, 1], band[:, 2]
     return [band[(bz < top + above_toe) & (np.abs(bx - toe[0]) < reach) & (np.abs(by - toe[1]) < reach)]
-            for toe, top in zip(legs[:, TOE], _tops(legs, along_sole, sole_from))]
+            for toe, top in zip(legs[:, TOE], _tops(legs, sole_from))]
 
 
 def _shoe_strips(legs: FloatArray, near: list[FloatArray],
@@ -322,7 +321,7 @@ def _shoe_strips(legs: FloatArray, near: list[FloatArray],
         strip = (s < ahead) & (s > -behind) & (np.abs(c) < half_width)
         # up to above_toe over the toe, or over the heel-to-toe line of a heel-up foot (the points near the toes may
         # reach higher: cut for another fit along the sole)
-        up = max(float(legs[side, HEEL, 2] - toe[2]) - fit.sole_from, 0.0) if fit.along_sole else 0.0
+        up = 0.0 if fit.sole_from is None else max(float(legs[side, HEEL, 2] - toe[2]) - fit.sole_from, 0.0)
         rise = up * np.clip(-s / norm, 0.0, 1.0) if up > 0.0 else 0.0
         strip &= near[side][:, 2] < toe[2] + rise + fit.above_toe
         pts, s, c = near[side][strip], s[strip], c[strip]
@@ -354,12 +353,10 @@ def _near_shoes(legs: FloatArray, points: FloatArray, *fits: ShoeStretch) -> tup
     if not np.all(np.isfinite(legs[:, (HEEL, TOE)])) or pts.shape[0] < min(f.min_points for f in fits):
         return legs, None
     reach = max(f.reach for f in fits)
-    along = [f for f in fits if f.along_sole]
-    sole_from = min((f.sole_from for f in along), default=0.0)
+    sole_from = min((f.sole_from for f in fits if f.sole_from is not None), default=None)  # the highest reach
     band = _shoe_band(legs, pts, min_height=fits[0].min_height, above_toe=fits[0].above_toe, reach=reach,
-                      along_sole=bool(along), sole_from=sole_from)
-    return legs, _near_toes(legs, band, above_toe=fits[0].above_toe, reach=reach, along_sole=bool(along),
-                            sole_from=sole_from)
+                      sole_from=sole_from)
+    return legs, _near_toes(legs, band, above_toe=fits[0].above_toe, reach=reach, sole_from=sole_from)
 
 
 def measure_shoe_rise(legs: FloatArray, points: FloatArray, *, fit: ShoeRiseFit = ShoeRiseFit()) -> FloatArray:
