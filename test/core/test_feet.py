@@ -441,3 +441,34 @@ def test_both_shoe_measures_at_once_are_the_two_apart() -> None:
     rise, turn = measure_shoes(legs, pts, rise_fit=other)
     np.testing.assert_array_equal(rise, measure_shoe_rise(legs, pts, fit=other))
     np.testing.assert_array_equal(turn, measure_shoe_turn(legs, pts))
+
+
+def test_the_compiled_point_selection_measures_as_numpy_does(monkeypatch) -> None:  # noqa: ANN001
+    # the toes' and the shoes' points picked in one compiled pass (numba) or by numpy's masks: the same measures, on
+    # shoes turned, raised heel-up and moved, among shins and clutter (a pinned dependency: the compiled case runs)
+    from walker_gait.core import _jit, kernels
+
+    rng = np.random.default_rng(7)
+    results: dict[str, list[np.ndarray]] = {}
+    scenes = []
+    for _ in range(40):
+        heels, toes, pts = _scene(rng)
+        clutter = np.column_stack([rng.uniform(-0.3, 0.6, 3000), rng.uniform(-0.4, 0.4, 3000),
+                                   rng.uniform(0.0, 0.4, 3000)])
+        legs = _legs(heels, toes)
+        legs[:, :, :2] += rng.normal(0.0, 0.03, (2, 1, 2))
+        legs[:, HEEL, 2] += rng.uniform(0.0, 0.12, 2)
+        legs[:, TOE, 2] += rng.uniform(0.0, 0.02, 2)
+        scenes.append((legs, np.vstack([pts, clutter])))
+    for name, jit in (("numpy", None), ("compiled", _jit)):
+        monkeypatch.setattr(kernels, "compiled", lambda jit=jit: jit)
+        out = []
+        for legs, pts in scenes:
+            toes, measured = measure_toes(legs, pts, camera=CAMERA)
+            rise, turn = measure_shoes(legs, pts)
+            out.append(np.concatenate([toes.ravel(), measured, rise, turn]))
+        results[name] = out
+    got, want = np.array(results["compiled"]), np.array(results["numpy"])
+    assert np.isfinite(want).mean() > 0.9  # most feet measured: the comparison means something
+    np.testing.assert_array_equal(np.isnan(got), np.isnan(want))
+    np.testing.assert_allclose(got, want, rtol=0, atol=1e-12)

@@ -169,3 +169,118 @@ def depth_cost_sums(model, ref, use_ref, obs, unknown, occlusion_aware, tol, occ
         for i in range(n8, n):
             a0 += scratch[i]
         out[p] = ((a0 + a1) + (a2 + a3)) + ((a4 + a5) + (a6 + a7))
+
+
+# The feet's measures (:mod:`walker_gait.core.feet`) pick a few thousand of the tens of thousands of foreground points
+# per frame: in numpy each test is a pass over all of them.  These kernels make one pass and keep the points in their
+# order; what follows (percentiles, medians, line fits) stays numpy's.  Their arithmetic is numpy's term by term
+# (numpy's 2-vector dot products may go through BLAS, which can fuse a multiply-add: they agree to rounding, tested).
+
+_TOE_SIDES_SIG = ("int64(float64[:, ::1], float64, float64, float64, float64, float64, float64, float64[:, ::1], "
+                  "float64[:, ::1], float64, int8[::1])")
+
+
+@njit(inline="always")
+def _segment_dist2_xy(x, y, ax, ay, abx, aby, den):  # pragma: no cover - compiled
+    """Squared horizontal distance of ``(x, y)`` to the segment from ``(ax, ay)`` along ``(abx, aby)`` (``den`` its
+    squared length), as :func:`walker_gait.core.feet._distance_to_segment_xy`."""
+    rx = x - ax
+    ry = y - ay
+    t = 0.0
+    if not den < 1e-12:
+        t = (rx * abx + ry * aby) / den
+        t = 0.0 if t < 0.0 else (1.0 if t > 1.0 else t)
+    dx = rx - t * abx
+    dy = ry - t * aby
+    return dx * dx + dy * dy
+
+
+@njit(_TOE_SIDES_SIG, cache=True, nogil=True, error_model="numpy")
+def toe_sides(pts, zlo, zhi, lo0, lo1, hi0, hi1, heel, toe, radius, side):  # pragma: no cover - compiled
+    """Which foot's toe measure each of the points ``pts`` ``(N, 3)`` belongs to (:func:`walker_gait.core.feet.
+    measure_toes`): ``side`` ``(N,)`` gets 0 or 1 for a point between heights ``zlo`` and ``zhi``, inside the box
+    ``lo0 < x < hi0``, ``lo1 < y < hi1``, within ``radius`` of that foot's heel-to-toe line (``heel``, ``toe``
+    ``(2, 3)``, on the floor) and nearer to it than to the other's, else -1.  Returns how many points the band and
+    box hold."""
+    n = pts.shape[0]
+    ax0, ay0 = heel[0, 0], heel[0, 1]
+    ax1, ay1 = heel[1, 0], heel[1, 1]
+    bx0, by0 = toe[0, 0] - ax0, toe[0, 1] - ay0
+    bx1, by1 = toe[1, 0] - ax1, toe[1, 1] - ay1
+    den0 = bx0 * bx0 + by0 * by0
+    den1 = bx1 * bx1 + by1 * by1
+    count = 0
+    for i in range(n):
+        side[i] = -1
+        x, y, z = pts[i, 0], pts[i, 1], pts[i, 2]
+        if not ((z > zlo) & (z < zhi) & (x > lo0) & (x < hi0) & (y > lo1) & (y < hi1)):
+            continue
+        count += 1
+        d0 = np.sqrt(_segment_dist2_xy(x, y, ax0, ay0, bx0, by0, den0))
+        d1 = np.sqrt(_segment_dist2_xy(x, y, ax1, ay1, bx1, by1, den1))
+        if (d0 < radius) & (d0 < d1):
+            side[i] = 0
+        elif (d1 < radius) & (d1 < d0):
+            side[i] = 1
+    return count
+
+
+_SHOE_NEAR_SIG = ("void(float64[:, ::1], float64, float64, float64, float64, float64, float64, float64[:, ::1], "
+                  "float64[::1], float64, boolean[:, ::1])")
+
+
+@njit(_SHOE_NEAR_SIG, cache=True, nogil=True, error_model="numpy")
+def shoe_near(pts, zlo, zhi, lo0, lo1, hi0, hi1, toe, zmax, reach, near):  # pragma: no cover - compiled
+    """Which of the points ``pts`` ``(N, 3)`` lie near each toe (:func:`walker_gait.core.feet._near_shoes`): ``near``
+    ``(N, 2)`` is True for a point between heights ``zlo`` and ``zhi``, inside the box ``lo0 < x < hi0``,
+    ``lo1 < y < hi1``, below that side's ``zmax`` ``(2,)`` and within ``reach`` of its ``toe`` ``(2, 3)`` in x and
+    y."""
+    for i in range(pts.shape[0]):
+        x, y, z = pts[i, 0], pts[i, 1], pts[i, 2]
+        band = (z > zlo) & (z < zhi) & (x > lo0) & (x < hi0) & (y > lo1) & (y < hi1)
+        for s in range(2):
+            near[i, s] = band & (z < zmax[s]) & (abs(x - toe[s, 0]) < reach) & (abs(y - toe[s, 1]) < reach)
+
+
+_SHOE_STRIP_SIG = ("int64(float64[:, ::1], float64[::1], float64[::1], float64[::1], float64, float64, float64, "
+                   "float64, float64, float64, float64, float64, float64[::1], float64[::1], float64[::1])")
+
+
+@njit(_SHOE_STRIP_SIG, cache=True, nogil=True, error_model="numpy")
+def shoe_strip(near, toe, other_heel, other_toe, u0, u1, norm, ahead, behind, half_width, up, above_toe, s_out,
+               c_out, z_out):  # pragma: no cover - compiled (tested against the numpy code)
+    """The points of ``near`` ``(M, 3)`` on the stretch of a shoe behind its ``toe`` ``(3,)`` (:func:`walker_gait.
+    core.feet._shoe_strips`): along the foot's unit heading ``(u0, u1)`` (``norm`` its heel-to-toe length) from
+    ``behind`` to ``ahead`` of the toe, within ``half_width`` of its line, below ``above_toe`` over the toe raised by
+    ``up`` along the sole towards the heel, and nearer this foot's heel-to-toe line than the other foot's
+    (``other_heel``, ``other_toe``).  Writes their position along and across the foot (from the toe) and their height
+    into ``s_out``, ``c_out``, ``z_out``, in order, and returns how many."""
+    tx, ty, tz = toe[0], toe[1], toe[2]
+    ox, oy = other_heel[0], other_heel[1]
+    obx, oby = other_toe[0] - ox, other_toe[1] - oy
+    oden = obx * obx + oby * oby
+    k = 0
+    for i in range(near.shape[0]):
+        x, y, z = near[i, 0], near[i, 1], near[i, 2]
+        rx = x - tx
+        ry = y - ty
+        s = rx * u0 + ry * u1
+        c = rx * -u1 + ry * u0
+        if not ((s < ahead) & (s > -behind) & (abs(c) < half_width)):
+            continue
+        rise = 0.0
+        if up > 0.0:
+            f = -s / norm
+            rise = up * (0.0 if f < 0.0 else (1.0 if f > 1.0 else f))
+        if not z < tz + rise + above_toe:
+            continue
+        a = s if s > 0.0 else 0.0
+        b = -norm - s
+        b = b if b > 0.0 else 0.0
+        own = c * c + a * a + b * b
+        if own < _segment_dist2_xy(x, y, ox, oy, obx, oby, oden):
+            s_out[k] = s
+            c_out[k] = c
+            z_out[k] = z
+            k += 1
+    return k

@@ -37,11 +37,13 @@ Measured with ``make sweep`` (32 synthetic sessions x 2 tracker seeds, sets C an
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
 
+from walker_gait.core import kernels
 from walker_gait.core.types import HEEL, TOE, CameraIntrinsics
 
 FloatArray = NDArray[np.float64]
@@ -94,6 +96,31 @@ def _distance_to_segment_xy(q: FloatArray, a: FloatArray, b: FloatArray, *, squa
     return d2 if squared else np.sqrt(d2)
 
 
+def _toe_points(legs: FloatArray, pts: FloatArray, lo: FloatArray, hi: FloatArray,
+                fit: ToeFit) -> Callable[[int], FloatArray] | None:
+    """The foreground ``pts`` each foot's toe is measured from (:func:`measure_toes`), as a function of the side: those
+    between the fit's heights, inside the box ``lo``-``hi`` (x, y) and within ``radius`` of that foot's heel-to-toe
+    line and nearer to it than to the other's, in their order; None where the band holds fewer than ``min_points``.
+    One compiled pass over the points where numba is installed (:mod:`walker_gait.core.kernels`), else numpy's."""
+    jit = kernels.compiled()
+    if jit is not None:
+        pts = np.ascontiguousarray(pts, dtype=np.float64)
+        side_of = np.empty(pts.shape[0], dtype=np.int8)
+        n_band = jit.toe_sides(pts, fit.min_height, fit.max_height, float(lo[0]), float(lo[1]), float(hi[0]),
+                               float(hi[1]), np.ascontiguousarray(legs[:, HEEL]), np.ascontiguousarray(legs[:, TOE]),
+                               fit.radius, side_of)
+        if n_band < fit.min_points:
+            return None
+        return lambda side: pts[side_of == side]
+    z = pts[:, 2]
+    band = pts[(z > fit.min_height) & (z < fit.max_height)]
+    band = band[np.all((band[:, :2] > lo) & (band[:, :2] < hi), axis=1)]
+    if band.shape[0] < fit.min_points:
+        return None
+    dist = np.stack([_distance_to_segment_xy(band, legs[s, HEEL], legs[s, TOE]) for s in (0, 1)])
+    return lambda side: band[(dist[side] < fit.radius) & (dist[side] < dist[1 - side])]
+
+
 def measure_toes(
     legs: FloatArray, points: FloatArray, *, camera: FloatArray, fit: ToeFit = ToeFit()
 ) -> tuple[FloatArray, BoolArray]:
@@ -115,12 +142,9 @@ def measure_toes(
     # the foreground, the shins above, is gone before the distances)
     ends = legs[:, (HEEL, TOE), :2].reshape(-1, 2)
     lo, hi = ends.min(axis=0) - fit.radius - fit.reach, ends.max(axis=0) + fit.radius + fit.reach
-    z = pts[:, 2]
-    band = pts[(z > fit.min_height) & (z < fit.max_height)]
-    band = band[np.all((band[:, :2] > lo) & (band[:, :2] < hi), axis=1)]
-    if band.shape[0] < fit.min_points:
+    near_sides = _toe_points(legs, pts, lo, hi, fit)
+    if near_sides is None:
         return toes, measured
-    dist = np.stack([_distance_to_segment_xy(band, legs[s, HEEL], legs[s, TOE]) for s in (0, 1)])
     cam = np.asarray(camera, dtype=np.float64)
     for side in (0, 1):
         heel, toe = legs[side, HEEL], legs[side, TOE]
@@ -131,7 +155,7 @@ def measure_toes(
         u = u / norm
         if float(u @ (cam[:2] - heel[:2])) <= 0.0:
             continue  # the foot points away from the camera: its toe box is not what the camera sees
-        near = band[(dist[side] < fit.radius) & (dist[side] < dist[1 - side])]
+        near = near_sides(side)
         if near.shape[0] < fit.min_points:
             continue
         v = np.array([-u[1], u[0]])
@@ -308,6 +332,7 @@ def _shoe_strips(legs: FloatArray, near: list[FloatArray],
     behind, ahead, half_width, min_points = fit.behind, fit.ahead, fit.half_width, fit.min_points
     out: list[tuple[FloatArray, FloatArray, FloatArray] | None] = [None, None]
     toes = legs[:, TOE]
+    jit = kernels.compiled()
     for side in (0, 1):
         toe = toes[side]
         u = (toe - legs[side, HEEL])[:2]
@@ -315,13 +340,22 @@ def _shoe_strips(legs: FloatArray, near: list[FloatArray],
         if norm < 1e-6 or near[side].shape[0] < min_points:
             continue
         u = u / norm
+        up = 0.0 if fit.sole_from is None else max(float(legs[side, HEEL, 2] - toe[2]) - fit.sole_from, 0.0)
+        if jit is not None:  # the same in one compiled pass
+            m = near[side].shape[0]
+            sc, cc, zc = np.empty(m), np.empty(m), np.empty(m)
+            k = jit.shoe_strip(np.ascontiguousarray(near[side]), np.ascontiguousarray(toe),
+                               np.ascontiguousarray(legs[1 - side, HEEL]), np.ascontiguousarray(toes[1 - side]),
+                               float(u[0]), float(u[1]), norm, ahead, behind, half_width, up, fit.above_toe, sc, cc, zc)
+            if k >= min_points:
+                out[side] = (sc[:k], cc[:k], zc[:k])
+            continue
         rel = near[side][:, :2] - toe[:2]
         s = rel @ u
         c = rel @ np.array([-u[1], u[0]])
         strip = (s < ahead) & (s > -behind) & (np.abs(c) < half_width)
         # up to above_toe over the toe, or over the heel-to-toe line of a heel-up foot (the points near the toes may
         # reach higher: cut for another fit along the sole)
-        up = 0.0 if fit.sole_from is None else max(float(legs[side, HEEL, 2] - toe[2]) - fit.sole_from, 0.0)
         rise = up * np.clip(-s / norm, 0.0, 1.0) if up > 0.0 else 0.0
         strip &= near[side][:, 2] < toe[2] + rise + fit.above_toe
         pts, s, c = near[side][strip], s[strip], c[strip]
@@ -354,9 +388,21 @@ def _near_shoes(legs: FloatArray, points: FloatArray, *fits: ShoeStretch) -> tup
         return legs, None
     reach = max(f.reach for f in fits)
     sole_from = min((f.sole_from for f in fits if f.sole_from is not None), default=None)  # the highest reach
-    band = _shoe_band(legs, pts, min_height=fits[0].min_height, above_toe=fits[0].above_toe, reach=reach,
-                      sole_from=sole_from)
-    return legs, _near_toes(legs, band, above_toe=fits[0].above_toe, reach=reach, sole_from=sole_from)
+    jit = kernels.compiled()
+    if jit is None:
+        band = _shoe_band(legs, pts, min_height=fits[0].min_height, above_toe=fits[0].above_toe, reach=reach,
+                          sole_from=sole_from)
+        return legs, _near_toes(legs, band, above_toe=fits[0].above_toe, reach=reach, sole_from=sole_from)
+    # the same points in one compiled pass: the band of both shoes, then each toe's
+    above_toe = fits[0].above_toe
+    toes = legs[:, TOE]
+    tops = _tops(legs, sole_from)
+    lo, hi = toes[:, :2].min(axis=0) - reach, toes[:, :2].max(axis=0) + reach
+    pts = np.ascontiguousarray(pts)
+    near = np.empty((pts.shape[0], 2), dtype=bool)
+    jit.shoe_near(pts, fits[0].min_height, float(tops.max()) + above_toe, float(lo[0]), float(lo[1]), float(hi[0]),
+                  float(hi[1]), np.ascontiguousarray(toes), tops + above_toe, reach, near)
+    return legs, [pts[near[:, 0]], pts[near[:, 1]]]
 
 
 def measure_shoe_rise(legs: FloatArray, points: FloatArray, *, fit: ShoeRiseFit = ShoeRiseFit()) -> FloatArray:
