@@ -301,25 +301,29 @@ def _tops(legs: FloatArray, sole_from: float | None) -> FloatArray:
     return top if sole_from is None else np.maximum(top, legs[:, HEEL, 2] - sole_from)
 
 
-def _shoe_band(legs: FloatArray, pts: FloatArray, *, min_height: float, above_toe: float, reach: float,
-               sole_from: float | None = None) -> FloatArray:
-    """The foreground ``pts`` that can be on either shoe's upper: between ``min_height`` and ``above_toe`` over the
-    higher top (:func:`_tops`), within ``reach`` of the toes in x and y (most of the foreground, the shins above, is
-    gone before the distances)."""
+def _near_limits(legs: FloatArray, *, above_toe: float, reach: float,
+                 sole_from: float | None) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """Where the points of either shoe's upper can lie: the box ``lo``-``hi`` (x, y) within ``reach`` of both toes, and
+    ``(2,)`` per side the height ``above_toe`` over its top (:func:`_tops`)."""
     toes = legs[:, TOE]
+    return toes[:, :2].min(axis=0) - reach, toes[:, :2].max(axis=0) + reach, _tops(legs, sole_from) + above_toe
+
+
+def _shoe_band(pts: FloatArray, *, min_height: float, lo: FloatArray, hi: FloatArray, zmax: FloatArray) -> FloatArray:
+    """The foreground ``pts`` that can be on either shoe's upper (:func:`_near_limits`): between ``min_height`` and the
+    higher ``zmax``, inside the box ``lo``-``hi`` (most of the foreground, the shins above, is gone before the
+    distances)."""
     x, y, z = pts[:, 0], pts[:, 1], pts[:, 2]
-    lo, hi = toes[:, :2].min(axis=0) - reach, toes[:, :2].max(axis=0) + reach
-    return pts[(z > min_height) & (z < float(_tops(legs, sole_from).max()) + above_toe)
+    return pts[(z > min_height) & (z < float(zmax.max()))
                & (x > lo[0]) & (x < hi[0]) & (y > lo[1]) & (y < hi[1])]
 
 
-def _near_toes(legs: FloatArray, band: FloatArray, *, above_toe: float, reach: float,
-               sole_from: float | None = None) -> list[FloatArray]:
-    """Per side, the points of ``band`` (:func:`_shoe_band`) up to ``above_toe`` over its top (:func:`_tops`) and
-    within ``reach`` of the tracked toe in x and y."""
+def _near_toes(toes: FloatArray, band: FloatArray, *, zmax: FloatArray, reach: float) -> list[FloatArray]:
+    """Per side, the points of ``band`` (:func:`_shoe_band`) below its ``zmax`` and within ``reach`` of its toe
+    (``toes`` ``(2, 3)``) in x and y."""
     bx, by, bz = band[:, 0], band[:, 1], band[:, 2]
-    return [band[(bz < top + above_toe) & (np.abs(bx - toe[0]) < reach) & (np.abs(by - toe[1]) < reach)]
-            for toe, top in zip(legs[:, TOE], _tops(legs, sole_from))]
+    return [band[(bz < top) & (np.abs(bx - toe[0]) < reach) & (np.abs(by - toe[1]) < reach)]
+            for toe, top in zip(toes, zmax)]
 
 
 def _shoe_strips(legs: FloatArray, near: list[FloatArray],
@@ -388,20 +392,16 @@ def _near_shoes(legs: FloatArray, points: FloatArray, *fits: ShoeStretch) -> tup
         return legs, None
     reach = max(f.reach for f in fits)
     sole_from = min((f.sole_from for f in fits if f.sole_from is not None), default=None)  # the highest reach
+    lo, hi, zmax = _near_limits(legs, above_toe=fits[0].above_toe, reach=reach, sole_from=sole_from)
     jit = kernels.compiled()
     if jit is None:
-        band = _shoe_band(legs, pts, min_height=fits[0].min_height, above_toe=fits[0].above_toe, reach=reach,
-                          sole_from=sole_from)
-        return legs, _near_toes(legs, band, above_toe=fits[0].above_toe, reach=reach, sole_from=sole_from)
+        band = _shoe_band(pts, min_height=fits[0].min_height, lo=lo, hi=hi, zmax=zmax)
+        return legs, _near_toes(legs[:, TOE], band, zmax=zmax, reach=reach)
     # the same points in one compiled pass: the band of both shoes, then each toe's
-    above_toe = fits[0].above_toe
-    toes = legs[:, TOE]
-    tops = _tops(legs, sole_from)
-    lo, hi = toes[:, :2].min(axis=0) - reach, toes[:, :2].max(axis=0) + reach
     pts = np.ascontiguousarray(pts)
     near = np.empty((pts.shape[0], 2), dtype=bool)
-    jit.shoe_near(pts, fits[0].min_height, float(tops.max()) + above_toe, float(lo[0]), float(lo[1]), float(hi[0]),
-                  float(hi[1]), np.ascontiguousarray(toes), tops + above_toe, reach, near)
+    jit.shoe_near(pts, fits[0].min_height, float(zmax.max()), float(lo[0]), float(lo[1]), float(hi[0]), float(hi[1]),
+                  np.ascontiguousarray(legs[:, TOE]), zmax, reach, near)
     return legs, [pts[near[:, 0]], pts[near[:, 1]]]
 
 
