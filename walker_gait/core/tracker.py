@@ -618,8 +618,8 @@ class LegTracker:
     footprints' test of a swinging foot reads the direction (``footprint_sigma``).  ``measure_shoes``: each pose
     reports the rise of its shoes' uppers and how far their centre lines turn from the reported feet
     (:func:`walker_gait.core.feet.measure_shoes`: about 2 ms a frame with the compiled kernels, 9 without, on the
-    slow 2-core VM of the sixty-fourth session), which the placement (:mod:`walker_gait.core.pelvis`, offline and live) turns into the heels'
-    pitch and heading; false (nothing placed afterwards: the placement off): None.
+    slow 2-core VM of the sixty-fourth session), which the placement (:mod:`walker_gait.core.pelvis`, offline and
+    live) turns into the heels' pitch and heading; false (nothing placed afterwards: the placement off): None.
     """
 
     def __init__(
