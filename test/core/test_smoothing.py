@@ -567,3 +567,91 @@ def test_a_backward_pass_of_the_tracker_tracks_the_legs(seq) -> None:  # noqa: A
     assert err[:-4].mean() < 0.08, err
     for p in track.poses:  # identity kept: the left leg on the image's right (+x), as forwards
         assert p.points[0, :3, 0].mean() > p.points[1, :3, 0].mean()
+
+
+def _rolling_foot(n: int, hidden: range, *, floor_v: float = 0.6, dt: float = 1 / 30,
+                  swing_from: int | None = None) -> tuple[list[LegPose], np.ndarray]:
+    """``n`` poses in a floor-aligned frame (z up, floor z = 0) of a walker moving along -x: the floor, and a planted
+    foot with it, moves along +x at ``floor_v``.  The left foot stands flat throughout; the right one stands flat,
+    then rolls over its planted toe (heel up) while its knee stays put, as a trailing foot does in late stance, and
+    is hidden over ``hidden`` (held at the last frame seen, as the tracker holds it).  From ``swing_from`` on the
+    right foot swings forward at 2.5 m/s instead (a swinging foot).  Returns the poses and the true points."""
+    truth = np.zeros((n, 2, 5, 3))
+    knee = np.array([0.16, -0.1, 0.45])
+    ankle_from_toe = np.array([0.20, 0.0, 0.09])  # flat: the ankle 20 cm behind the toe, 9 cm up; the heel 26 cm
+    heel_from_toe = np.array([0.26, 0.0, 0.0])
+    calf = float(np.linalg.norm(knee - ([0.0, -0.1, 0.0] + ankle_from_toe)))  # the foot stands flat at t = 0
+    for i in range(n):
+        t = i * dt
+        # left leg: flat, planted, carried by the floor
+        toe_l = np.array([-0.05 + floor_v * t, 0.1, 0.0])
+        truth[i, 0] = [toe_l + [0.3, 0, 0.85], toe_l + [0.25, 0, 0.45], toe_l + ankle_from_toe, toe_l + heel_from_toe,
+                       toe_l]
+        toe = np.array([floor_v * t, -0.1, 0.0])
+        # the foot's turn about the toe (heel up) that keeps the ankle a calf's length from the knee: bisection
+        def turned(v: np.ndarray, a: float) -> np.ndarray:  # about the toe, heel up
+            return np.array([v[0] * np.cos(a) - v[2] * np.sin(a), 0.0, v[0] * np.sin(a) + v[2] * np.cos(a)])
+
+        lo_a, hi_a = 0.0, 1.4
+        for _ in range(60):
+            mid = 0.5 * (lo_a + hi_a)
+            lo_a, hi_a = (mid, hi_a) if np.linalg.norm(toe + turned(ankle_from_toe, mid) - knee) > calf else (lo_a, mid)
+        turn = 0.0 if np.linalg.norm(toe + ankle_from_toe - knee) <= calf else lo_a
+        ank, heel = toe + turned(ankle_from_toe, turn), toe + turned(heel_from_toe, turn)
+        truth[i, 1] = [knee + [0.0, 0.0, 0.4], knee, ank, heel, toe]
+        if swing_from is not None and i >= swing_from:
+            truth[i, 1] = truth[swing_from - 1, 1] + [-2.5 * (i - swing_from + 1) * dt, 0.0, 0.03]
+    poses, held = [], truth.copy()
+    for i in range(n):
+        vis = np.ones((2, 3))
+        if i in hidden:
+            vis[1, 1:] = 0.0
+            held[i, 1] = held[i - 1, 1]
+        poses.append(LegPose(stamp=i * dt, points=held[i].copy(), visibility=vis, status=TrackStatus.TRACKING,
+                             confidence=0.9))
+    return poses, truth
+
+
+def test_a_hidden_foot_standing_on_the_floor_rolls_over_its_toe_as_the_floor_carries_it() -> None:
+    poses, truth = _rolling_foot(32, range(8, 18))
+    gap = slice(8, 18)
+    assert truth[17, 1, 3, 2] > 0.15  # the real heel rises over 15 cm while hidden
+    rolled = bridge_hidden_legs(poses, hide_below=0.25, floor_frame=True)
+    plain = bridge_hidden_legs(poses, hide_below=0.25)  # without a floor-aligned frame: the Hermite curves alone
+    err = {name: np.linalg.norm(np.array([p.points[1, 2:] for p in out[gap]]) - truth[gap, 1, 2:], axis=-1)
+           for name, out in (("rolled", rolled), ("plain", plain))}
+    assert err["plain"].max() > 0.005
+    assert err["rolled"].max() < 1e-3  # the toe with the floor, the heel up as far as its knee lets it: exact
+    assert all(np.array_equal(o.points[1, :2], p.points[1, :2]) for o, p in zip(rolled[gap], plain[gap]))  # hip, knee
+    assert all(o is p for i, (o, p) in enumerate(zip(rolled, poses)) if not 8 <= i < 18)
+    # seen again in its swing: the toe leaves the floor late enough for the swing to get there no faster than any
+    # toe was seen to move; the curves alone keep the toe too far forward and the heel too low
+    poses, truth = _rolling_foot(32, range(8, 18), swing_from=16)
+    err = {name: np.linalg.norm(np.array([p.points[1, 2:] for p in out[gap]]) - truth[gap, 1, 2:], axis=-1).max()
+           for name, out in (("rolled", bridge_hidden_legs(poses, hide_below=0.25, floor_frame=True)),
+                             ("plain", bridge_hidden_legs(poses, hide_below=0.25)))}
+    assert err["plain"] > 0.08 and err["rolled"] < 0.7 * err["plain"]
+
+
+def test_a_hidden_foot_that_swings_or_has_no_floor_seen_is_bridged_by_the_curves_alone() -> None:
+    poses, _ = _rolling_foot(32, range(14, 20), swing_from=12)  # last seen swinging at 2.5 m/s against the floor
+    want = [p.points.tolist() for p in bridge_hidden_legs(poses, hide_below=0.25)]
+    assert [p.points.tolist() for p in bridge_hidden_legs(poses, hide_below=0.25, floor_frame=True)] == want
+    poses, _ = _rolling_foot(32, range(8, 18))
+    raised = [replace(p, points=p.points + [0.0, 0.0, 0.05]) for p in poses]  # no foot on the floor: no floor seen
+    want = [p.points.tolist() for p in bridge_hidden_legs(raised, hide_below=0.25)]
+    assert [p.points.tolist() for p in bridge_hidden_legs(raised, hide_below=0.25, floor_frame=True)] == want
+
+
+def test_reported_poses_roll_a_hidden_planted_foot_in_the_walker_frame() -> None:
+    """With floors the bridge works in the walker frame, where the floor is z = 0: a hidden foot that stood on it is
+    rolled over its toe (the camera here 0.5 m up, pitched 30 deg down); without floors the curves alone."""
+    poses, truth = _rolling_foot(32, range(8, 18))
+    floor = FloorPlane.from_camera_pose(height=0.5, pitch=np.radians(30.0))
+    rot, t = floor.walker_transform()
+    camera = [replace(p, points=(p.points - t) @ rot) for p in poses]  # camera frame: rot.T @ (p - t)
+    shown = reported_poses(camera, hide_below=0.25, lowpass_hz=0.0, floors=[floor] * len(camera))
+    walker = np.array([floor.to_walker(p.points) for p in shown])
+    assert np.abs(walker[8:18, 1, 2:] - truth[8:18, 1, 2:]).max() < 1e-3
+    plain = reported_poses(camera, hide_below=0.25, lowpass_hz=0.0)
+    assert np.abs(np.array([floor.to_walker(p.points) for p in plain])[8:18, 1, 2:] - truth[8:18, 1, 2:]).max() > 0.005
