@@ -16,16 +16,18 @@ FLIP = np.diag([-1.0, -1.0, 1.0])  # body frame -> walker frame for a camera fac
 
 
 def _state(angles_deg: list[float], *, root_xy: tuple[float, float] = (0.0, -0.09),
-           thigh: float | None = None) -> np.ndarray:
+           thigh: float | None = None, calf: float | None = None) -> np.ndarray:
     x = lm.neutral_state(right_hip_xy=root_xy)
     x[L.ANGLES] = np.radians(angles_deg)
     if thigh is not None:
         x[L.LEN_THIGH] = thigh
+    if calf is not None:
+        x[L.LEN_CALF] = calf
     return lm.enforce_constraints(x[None])[0][0]
 
 
 def _walk(n: int = 90, fps: float = 30.0, *, lean_deg: float = 0.0,
-          thigh: float | None = None) -> tuple[list[LegPose], np.ndarray]:
+          thigh: float | None = None, calf: float | None = None) -> tuple[list[LegPose], np.ndarray]:
     """A walking-like sequence in the walker frame: the legs swing in antiphase at 1 Hz under a still pelvis, the
     thighs leaning ``lean_deg`` back from where they would bring the pelvis over the feet (the tracked pelvis's
     error: a pelvis ahead of the feet); returns the poses and each frame's state."""
@@ -33,7 +35,7 @@ def _walk(n: int = 90, fps: float = 30.0, *, lean_deg: float = 0.0,
     for i in range(n):
         s = np.sin(2 * np.pi * i / fps)
         ang = [20 * s - lean_deg, 2, 0, 30 + 15 * s, 5 * s, 0, -20 * s - lean_deg, 2, 0, 30 - 15 * s, -5 * s, 0]
-        x = _state(ang, thigh=thigh)
+        x = _state(ang, thigh=thigh, calf=calf)
         pts = lm.forward_kinematics(x).points[0]
         states.append(x)
         segs = np.zeros((2, 3, 2, 3))
@@ -240,10 +242,12 @@ def test_a_held_pose_is_held_as_placed() -> None:
 
 
 def test_a_measured_leg_length_puts_the_hips_at_their_height() -> None:
-    """Tracked legs 6 cm short in all (the camera sees neither the thighs nor the knees) leave the hips low; with the
-    user's measured leg length the thighs and calves have its lengths, each knee moves along its tracked calf, the
-    feet stay bit for bit and the hips come to their true height, offline and live alike."""
-    poses, states = _walk(n=60, lean_deg=-4.0)
+    """A tall user (thighs and calves 3 cm longer than the typical adult's) tracked on legs 6 cm short in all (the
+    camera sees neither the thighs nor the knees): not measured, the legs are reported as the typical adult's and the
+    hips stand low; with the user's measured leg length the thighs and calves have its lengths, each knee moves along
+    its tracked calf, the feet stay bit for bit and the hips come to their true height, offline and live alike."""
+    typical_thigh, typical_calf = pv.TYPICAL_THIGH_CALF_M
+    poses, states = _walk(n=60, lean_deg=-4.0, thigh=typical_thigh + 0.03, calf=typical_calf + 0.03)
     true_pts = np.stack([p.points for p in poses]) @ FLIP
     foot = states[0, L.LEN_FOOT]
     leg = states[0, L.LEN_THIGH] + states[0, L.LEN_CALF] + lm.ANKLE_HEIGHT * foot  # the hips' standing height
@@ -263,7 +267,10 @@ def test_a_measured_leg_length_puts_the_hips_at_their_height() -> None:
         got = np.stack([p.points for p in placed])[inner] @ FLIP
         return float(np.abs(got[:, :, HIP, 2] - hip_z).mean())
 
+    typical = np.stack([p.points for p in pv.place_poses(tracked)]) @ FLIP
     assert hips_off(pv.place_poses(tracked)) > 0.04
+    np.testing.assert_allclose(np.linalg.norm(typical[:, :, HIP] - typical[:, :, KNEE], axis=-1), typical_thigh,
+                               atol=2e-3)
     placed = pv.place_poses(tracked, leg_length_m=leg)
     assert hips_off(placed) < 0.015
     after = np.stack([p.points for p in placed]) @ FLIP
@@ -280,6 +287,11 @@ def test_a_measured_leg_length_puts_the_hips_at_their_height() -> None:
     # live: the same lengths
     floor = _floor()
     rot, t = floor.walker_transform()
+    unmeasured = pv.LivePelvis()
+    out = [unmeasured.place(pv.moved_pose(p, rot.T, -(rot.T @ t)), floor) for p in tracked]
+    live_pts = np.stack([floor.to_walker(p.points) for p in out]) @ FLIP
+    np.testing.assert_allclose(np.linalg.norm(live_pts[:, :, HIP] - live_pts[:, :, KNEE], axis=-1), typical_thigh,
+                               atol=2e-3)
     live = pv.LivePelvis(leg_length_m=leg)
     out = [live.place(pv.moved_pose(p, rot.T, -(rot.T @ t)), floor) for p in tracked]
     live_pts = np.stack([floor.to_walker(p.points) for p in out]) @ FLIP

@@ -23,7 +23,8 @@ so they describe the pose the points show.
 A user's thighs, calves and shoes keep their lengths, but the tracker's lengths are part of its state and wander
 with it from frame to frame (sd 2.4 cm for the shoe within a session, where its error from one session to the next
 is 1.2-1.6 cm): the placement reports each track with one length of each, the median over the track so far
-(:func:`segment_lengths`), each knee moved along its tracked calf to the calf's length and each heel along its
+(:func:`segment_lengths`) for the shoe, the typical adult's for the thigh and the calf, which the camera does not see
+(:data:`TYPICAL_THIGH_CALF_M`), each knee moved along its tracked calf to the calf's length and each heel along its
 tracked foot (from the seen toe) to the shoe's length (live only a heel whose shoe the track has shown cleanly:
 :meth:`LivePelvis.place`).  The gait analysis reads the heels as tracked: live the placed pose keeps them as
 ``LegPose.heel_tracked`` (``LegTrack.heel_tracked``), so that the live steps stay those of ``walker-gait process
@@ -41,7 +42,7 @@ live both over the track so far, the heading carried into the heel rise only (:c
 
 The hips' height is the leg lengths', which nothing in view measures either: given the user's measured leg length
 (``leg_length_m``, the hip joint centre's standing height above the floor, as gait labs record it), the thighs and
-calves are reported with it (:func:`with_leg_length`).
+calves are reported with it (:func:`with_leg_length`), otherwise as the typical adult's.
 
 Frames: the poses are given in a floor-aligned frame (the walker frame of
 :meth:`~walker_gait.core.types.FloorPlane.walker_transform`, z up) and ``mounting`` says how the body frame of
@@ -293,6 +294,18 @@ LEG_LENGTH_RANGE_M = (0.5, 1.3)
 is a mistake (centimetres, a stature) rather than a user."""
 
 
+TYPICAL_THIGH_CALF_M: tuple[float, float] | None = (float(lm.MEAN_SHAPE[0]), float(lm.MEAN_SHAPE[1]))
+"""The thigh and calf lengths (m) reported where the user's leg length is not measured: the leg model's typical adult
+(:data:`~walker_gait.core.leg_model.MEAN_SHAPE`, hips 0.85 m over the ankles).  The camera sees neither the hips nor,
+mounted as usual, the knees, so the tracker's thigh and calf lengths are carried by its dynamics alone: over the 64
+sessions of sweep sets C and A (sixty-fifth session) each track's medians were uncorrelated with the user's
+(correlation -0.13 / -0.04 for the thigh, 0.15 / -0.05 for the calf), their sum 6.0 / 6.6 cm off (RMS) where the
+typical adult's is 4.4 / 4.4 cm off (the synthetic users' 83.1 / 83.7 cm on average, the typical 85); the reported
+hips 6.65 -> 5.90 / 6.94 -> 5.82 cm, the knees 4.11 -> 4.04 / 4.93 -> 3.82, live 7.1 -> 6.6 and 5.3 -> 4.6 (both
+sets).  Even a camera that sees the knees (``different_camera``) had the calves 1.6-7.2 cm short.  ``None``: the
+tracked ones (the track's medians)."""
+
+
 HIP_HEIGHT_SHARE = 0.530
 """The hip joint centre's (greater trochanter's) standing height as a share of stature (Winter's segment lengths):
 what the refusal of a stature given as a leg length suggests instead."""
@@ -523,8 +536,8 @@ def with_leg_length(states: FloatArray, held: FloatArray, leg_length_m: float) -
     above the floor standing: the thigh and the calf share it less the model's ankle height as :data:`THIGH_SHARE`
     says) and ``held`` ``(F, 2, 4, 3)`` (:func:`held_points`) with each knee moved along its tracked calf to the new
     calf length (:func:`with_lengths`).  The camera sees neither the thigh nor the knee, so the tracker's leg lengths
-    are the model's guess (per session 5 cm off in height at the hips, sd); a clinic measures the leg length anyway
-    (GAITRite and gait labs normalise by it)."""
+    are the model's guess (uncorrelated with the user's, :data:`TYPICAL_THIGH_CALF_M`); a clinic measures the leg
+    length anyway (GAITRite and gait labs normalise by it)."""
     legs = leg_length_m - lm.ANKLE_HEIGHT * np.asarray(states, dtype=np.float64)[:, L.LEN_FOOT]
     return with_lengths(states, held, thigh=THIGH_SHARE * legs, calf=(1.0 - THIGH_SHARE) * legs)
 
@@ -545,10 +558,11 @@ def place_poses(poses: Sequence[LegPose], *, mounting: str = "facing_user",
     ankles in a centred window of ``window_s`` put it (:func:`pelvis_target`) and its hips, knees and joint angles
     re-solved with the knees, ankles, heels and toes held (:func:`place_pelvis`), the thighs, calves and feet of the
     track's median lengths (:func:`segment_lengths`; a track ends at a frame that is ``NO_USER`` or ``SEARCHING``),
-    each knee moved along its tracked calf and each heel along its tracked foot to them (:func:`with_lengths`);
-    with a measured ``leg_length_m`` the thighs and calves of that length (:func:`with_leg_length`).  Frames
-    that are neither ``TRACKING`` nor ``DEGRADED`` or lack points or angles are returned as given; a pose the tracker held
-    (the same points and angles as the frame before) is held as placed."""
+    the thighs and calves the typical adult's (:data:`TYPICAL_THIGH_CALF_M`), each knee moved along its tracked calf
+    and each heel along its tracked foot to them (:func:`with_lengths`); with a measured ``leg_length_m`` the thighs
+    and calves of that length (:func:`with_leg_length`).  Frames that are neither ``TRACKING`` nor ``DEGRADED`` or
+    lack points or angles are returned as given; a pose the tracker held (the same points and angles as the frame
+    before) is held as placed."""
     if not window_s > 0:
         raise ValueError(f"window_s must be > 0, got {window_s}")
     flip = _flip(mounting)
@@ -617,11 +631,11 @@ class LivePelvis:
     """:func:`place_poses` frame by frame, for the live graph: the ankles' midpoint over the last ``window_s`` (a
     straight line fitted to it against time, read at the newest frame, so a user who walks in or drifts towards the
     walker is not left behind by half a window) with the lean of the feet's swing and their heading in that window
-    (:func:`pelvis_target`), the same re-solve with the thighs, calves and feet of the median lengths over the track's
-    frames so far (at most :data:`LIVE_LENGTHS_FRAMES`), and the heels placed as :func:`place_poses` places them,
-    causally (:meth:`place`).  A frame without a track, a floor or time that runs backwards starts the history
-    afresh; a pose the tracker held (the same points and angles as the last one placed: a blanked view) is held as
-    placed.  ``leg_length_m`` as :func:`place_poses`'s."""
+    (:func:`pelvis_target`), the same re-solve with the feet of the median length over the track's frames so far (at
+    most :data:`LIVE_LENGTHS_FRAMES`) and the thighs and calves as :func:`place_poses` has them, and the heels placed
+    as :func:`place_poses` places them, causally (:meth:`place`).  A frame without a track, a floor or time that
+    runs backwards starts the history afresh; a pose the tracker held (the same points and angles as the last one
+    placed: a blanked view) is held as placed.  ``leg_length_m`` as :func:`place_poses`'s."""
 
     def __init__(self, *, mounting: str = "facing_user", window_s: float = PLACE_WINDOW_S,
                  leg_length_m: float | None = None) -> None:
@@ -764,6 +778,8 @@ def _solve(points: FloatArray, angles: FloatArray, target: FloatArray, leg_lengt
     lengths = np.asarray(lengths, dtype=np.float64).reshape(len(states), 3)
     tracked = states[:, [L.LEN_THIGH, L.LEN_CALF]]
     legs = np.where(np.isfinite(lengths[:, :2]), lengths[:, :2], tracked)
+    if leg_length_m is None and TYPICAL_THIGH_CALF_M is not None:
+        legs = np.broadcast_to(np.asarray(TYPICAL_THIGH_CALF_M, dtype=np.float64), legs.shape)
     foot = lengths[:, 2] if np.all(np.isfinite(lengths[:, 2])) else None
     states, held = with_lengths(states, held, thigh=legs[:, 0], calf=legs[:, 1], foot=foot,
                                 foot_pitch=None if foot is None else foot_pitch,
