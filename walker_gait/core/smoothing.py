@@ -523,9 +523,9 @@ def _planted_bridge(curve: FloatArray, before: FloatArray, after: FloatArray, st
     it to where it is seen again (then a Hermite curve from the floor's velocity to its own); while the toe is on the
     floor the foot, rigid, turns about it (along its heading, in the vertical plane) so that its ankle stays the
     calf's length from the bridged knee (the knee hardly moves through the walker frame in late stance); in the swing
-    the ankle and heel turn from there to where they are seen again about the toe.  A foot whose toe was not on the
-    floor, or moved faster than :data:`BRIDGE_PLANTED_SPEED` against it, or a floor with too few flat feet seen near
-    the stretch, or a foot without a length, keeps ``curve``."""
+    the ankle's and the heel's offsets from the toe go linearly from there to those seen after.  A foot whose toe was
+    not on the floor, or moved faster than :data:`BRIDGE_PLANTED_SPEED` against it, or a floor with too few flat feet
+    seen near the stretch, or a foot without a length, keeps ``curve``."""
     toe0 = before[TOE]
     v = floor.velocity(lo, hi)
     if v is None or toe0[2] > BRIDGE_PLANTED_Z or float(np.hypot(*(v0[:2] - v))) > BRIDGE_PLANTED_SPEED:
