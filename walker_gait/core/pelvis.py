@@ -556,9 +556,9 @@ def place_poses(poses: Sequence[LegPose], *, mounting: str = "facing_user",
                 window_s: float = PLACE_WINDOW_S, leg_length_m: float | None = None) -> list[LegPose]:
     """The poses (floor-aligned frame, see the module docstring) with each tracked frame's pelvis placed where the
     ankles in a centred window of ``window_s`` put it (:func:`pelvis_target`) and its hips, knees and joint angles
-    re-solved with the knees, ankles, heels and toes held (:func:`place_pelvis`), the thighs, calves and feet of the
-    track's median lengths (:func:`segment_lengths`; a track ends at a frame that is ``NO_USER`` or ``SEARCHING``),
-    the thighs and calves the typical adult's (:data:`TYPICAL_THIGH_CALF_M`), each knee moved along its tracked calf
+    re-solved with the knees, ankles, heels and toes held (:func:`place_pelvis`), the feet of the track's median
+    length (:func:`segment_lengths`; a track ends at a frame that is ``NO_USER`` or ``SEARCHING``), the thighs and
+    calves the typical adult's (:data:`TYPICAL_THIGH_CALF_M`), each knee moved along its tracked calf
     and each heel along its tracked foot to them (:func:`with_lengths`); with a measured ``leg_length_m`` the thighs
     and calves of that length (:func:`with_leg_length`).  Frames that are neither ``TRACKING`` nor ``DEGRADED`` or
     lack points or angles are returned as given; a pose the tracker held (the same points and angles as the frame
