@@ -452,7 +452,7 @@ def bridge_hidden_legs(poses: Sequence[LegPose], *, hide_below: float, max_gap_s
             curve = np.stack([_hermite((stamps[i] - stamps[lo]) / span, p0, m0, p1, m1) for i in range(a, hi)])
             if floor is not None:
                 curve = _planted_bridge(curve, poses[lo].points[leg], poses[hi].points[leg], stamps[lo:hi + 1],
-                                        v0=m0[-1] / span, v1=m1[-1] / span, floor=floor, lo=lo, hi=hi)
+                                        v0=m0[-1] / span, v1=m1[-1] / span, floor=floor)
             for i in range(a, hi):
                 out[i] = _with_leg_points(out[i], leg, curve[i - a])
     return out
@@ -477,15 +477,14 @@ def _hermite_speed(p0: FloatArray, m0: FloatArray, p1: FloatArray, m1: FloatArra
 class _FloorMotion:
     """How the floor and the feet move through a floor-aligned frame over a merged track, from the feet seen."""
 
-    frames: NDArray[np.int_]  # frames of the flat feet's velocities
+    times: FloatArray  # (F,) s: when the flat feet's velocities were taken
     velocities: FloatArray  # (F, 2) m/s: their toes' velocities, the floor's there
     toe_speed: float  # m/s: the fastest a seen toe moved from one frame to the next (inf: none seen)
-    stamps: FloatArray
 
     @staticmethod
     def of(poses: Sequence[LegPose], seen: NDArray[np.bool_], stamps: FloatArray) -> _FloorMotion:
         """``seen`` ``(n, 2)``: which feet are seen with finite points."""
-        frames, vel, speeds = [], [], []
+        times, vel, speeds = [], [], []
         for i in range(1, len(poses)):
             for leg in (0, 1):
                 if not (seen[i, leg] and seen[i - 1, leg] and stamps[i] > stamps[i - 1]):
@@ -494,23 +493,23 @@ class _FloorMotion:
                 speeds.append(float(np.hypot(*step)) / (stamps[i] - stamps[i - 1]))
                 if i + 1 < len(poses) and seen[i + 1, leg] and stamps[i + 1] > stamps[i - 1] \
                         and max(poses[i].points[leg, HEEL, 2], poses[i].points[leg, TOE, 2]) < BRIDGE_FLAT_Z:
-                    frames.append(i)
+                    times.append(float(stamps[i]))
                     vel.append((poses[i + 1].points[leg, TOE, :2] - poses[i - 1].points[leg, TOE, :2])
                                / (stamps[i + 1] - stamps[i - 1]))
-        return _FloorMotion(frames=np.array(frames, dtype=int), velocities=np.array(vel).reshape(-1, 2),
-                            toe_speed=max(speeds) if speeds else math.inf, stamps=stamps)
+        return _FloorMotion(times=np.array(times, dtype=np.float64), velocities=np.array(vel).reshape(-1, 2),
+                            toe_speed=max(speeds) if speeds else math.inf)
 
-    def velocity(self, lo: int, hi: int) -> FloatArray | None:
-        """``(2,)`` m/s: the floor's velocity around frames ``lo``-``hi`` (None: too few flat feet seen there)."""
-        t = self.stamps[self.frames] if self.frames.size else np.zeros(0)
-        near = (t >= self.stamps[lo] - BRIDGE_FLOOR_S) & (t <= self.stamps[hi] + BRIDGE_FLOOR_S)
+    def velocity(self, start: float, end: float) -> FloatArray | None:
+        """``(2,)`` m/s: the floor's velocity around the times ``start``-``end`` (None: too few flat feet seen
+        there)."""
+        near = (self.times >= start - BRIDGE_FLOOR_S) & (self.times <= end + BRIDGE_FLOOR_S)
         if int(near.sum()) < BRIDGE_FLOOR_SAMPLES:
             return None
         return np.asarray(np.median(self.velocities[near], axis=0), dtype=np.float64)
 
 
 def _planted_bridge(curve: FloatArray, before: FloatArray, after: FloatArray, stamps: FloatArray, *,
-                    v0: FloatArray, v1: FloatArray, floor: _FloorMotion, lo: int, hi: int) -> FloatArray:
+                    v0: FloatArray, v1: FloatArray, floor: _FloorMotion) -> FloatArray:
     """``curve`` ``(m, 4, 3)`` (a stretch's Hermite knee, ankle, heel and toe; floor-aligned frame) with a foot that
     stood on the floor when last seen (``before``: that frame's ``(5, 3)`` points, ``v0`` its toe's velocity over
     the frames before) bridged as a walking foot moves; ``after`` the points seen after the stretch, ``v1`` that
@@ -527,7 +526,7 @@ def _planted_bridge(curve: FloatArray, before: FloatArray, after: FloatArray, st
     not on the floor, or moved faster than :data:`BRIDGE_PLANTED_SPEED` against it, or a floor with too few flat feet
     seen near the stretch, or a foot without a length, keeps ``curve``."""
     toe0 = before[TOE]
-    v = floor.velocity(lo, hi)
+    v = floor.velocity(float(stamps[0]), float(stamps[-1]))
     if v is None or toe0[2] > BRIDGE_PLANTED_Z or float(np.hypot(*(v0[:2] - v))) > BRIDGE_PLANTED_SPEED:
         return curve
     heading = before[TOE] - before[HEEL]
