@@ -328,8 +328,12 @@ def test_reanalyse_runs_the_gait_analyzer_on_the_kept_poses(tmp_path: Path, caps
 
 @pytest.mark.slow
 def test_real_session_and_cli(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    # a render cached by another version of the generator is not read back (its frames would not be this truth's)
+    (tmp_path / "cache").mkdir()
+    (tmp_path / "cache" / "normal_7_3s.npz").write_bytes(b"not a render")
     runs = sweep.run_session("normal", 7, duration=3.0, tracker_seeds=(0,), cache=tmp_path / "cache")
-    assert len(runs) == 1 and (tmp_path / "cache" / "normal_7_3s.npz").exists()
+    tag = sweep.generator_tag()
+    assert tag.startswith("_g") and len(runs) == 1 and (tmp_path / "cache" / f"normal_7_3s{tag}.npz").exists()
     r = runs[0]
     assert r.est.shape == r.truth.shape and r.trackable.all() and len(r.gt) >= 2
     s = sweep.summarise(runs)

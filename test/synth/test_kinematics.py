@@ -222,3 +222,47 @@ def test_a_walk_after_a_stop_takes_its_own_line_of_progression() -> None:
     # the approach itself (bout 0) runs diagonally in the world: its line is its own as well
     approach = [x for x in s.steps if x.bout == 0][2:]
     assert approach and all(x.step_width < 0.2 for x in approach)
+
+
+def _swing_progress(session: Session) -> list[tuple[float, np.ndarray]]:
+    """Per swing (toe off to the next heel strike, both feet): its horizontal length and its ankle's progress along it
+    at 200 samples (world frame)."""
+    kin = session.kinematics
+    out = []
+    for side in (0, 1):
+        f = kin.f[side]
+        for k in range(len(f["hs"]) - 1):
+            t_to, t_hs = float(f["to"][k]), float(f["hs"][k + 1])
+            if not t_hs - t_to > 0.05 or t_hs > session.spec.duration:
+                continue
+            ankle = kin.evaluate(np.linspace(t_to, t_hs, 200)).ankle[:, side, :2]
+            d = ankle[-1] - ankle[0]
+            length = float(np.linalg.norm(d))
+            if length > 0.02:
+                out.append((length, (ankle - ankle[0]) @ (d / length)))
+    return out
+
+
+@pytest.mark.parametrize("over", [{"step_length": (0.15, 0.2), "cadence": (62.0, 70.0)},
+                                  {"step_length": (0.25, 0.3), "cadence": (75.0, 85.0)}])
+def test_short_strides_swing_forwards_without_stopping(over: dict[str, tuple[float, float]]) -> None:
+    """A frail user's short steps and every first step from standing: the swing ankle never stops or slides back
+    mid-swing (the normative curves' excursion, made for a normal stride, did: by up to 2-3 cm, and went on)."""
+    session = generate_session(SessionSpec.preset("normal", duration=8.0, scale=0.1, **over),
+                               rng=np.random.default_rng(3))
+    swings = _swing_progress(session)
+    assert len(swings) >= 6 and min(length for length, _ in swings) < 0.3
+    for length, along in swings:
+        mid = along[20:180]  # 10-90 % of the swing
+        assert np.all(np.diff(mid) > 0.0), f"a {length:.2f} m swing stops or slides back"
+        assert along[-1] - along[0] == pytest.approx(length)
+
+
+def test_normal_strides_keep_the_normative_swing() -> None:
+    """Strides of ordinary length are left as the normative curves make them (not the min-jerk stand-in)."""
+    session = _session("normal", seed=7, duration=10.0)
+    kin = session.kinematics
+    long_ones = [(side, k) for side in (0, 1) for k in range(len(kin.f[side]["hs"]) - 1)
+                 if np.linalg.norm(kin.f[side]["heel"][k + 1] - kin.f[side]["heel"][k]) > 0.6]
+    assert len(long_ones) >= 6
+    assert not any(kin._stalls(side, k) for side, k in long_ones)

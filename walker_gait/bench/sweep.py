@@ -36,6 +36,7 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import functools
 import hashlib
 import json
 import math
@@ -151,10 +152,25 @@ def _session(scenario: str, seed: int, duration: float, spec: dict[str, Any] | N
     return generate_session(SessionSpec.preset(scenario, duration=dur, **(spec or {})), rng=np.random.default_rng(seed))
 
 
+@functools.cache
+def generator_tag() -> str:
+    """Cache-name suffix naming the synthetic generator's code (its package's sources and the bench's renderer): a
+    render cached by an earlier generator is not read back with a newer one's ground truth."""
+    from walker_gait.bench import endtoend
+    from walker_gait.synth import __file__ as synth_init
+
+    files = sorted(Path(synth_init).parent.glob("*.py")) + [Path(endtoend.__file__)]
+    digest = hashlib.sha1()
+    for f in files:
+        digest.update(f.name.encode())
+        digest.update(f.read_bytes())
+    return "_g" + digest.hexdigest()[:8]
+
+
 def _rendered(session: Any, cache: Path | None, name: str) -> Any:
     from walker_gait.bench.endtoend import Rendered, render
 
-    path = None if cache is None else cache / f"{name}.npz"
+    path = None if cache is None else cache / f"{name}{generator_tag()}.npz"
     if path is not None and path.exists():
         with np.load(path) as z:
             return Rendered(frames=list(z["frames"]), visible_pixels=z["visible"], seconds=0.0)

@@ -85,6 +85,10 @@ NORMATIVE_FOURIER: dict[str, tuple[float, tuple[float, ...], tuple[float, ...]]]
 }
 NORMATIVE_TOE_OFF_PHASE = 0.62
 """Toe-off as a fraction of the normative gait cycle (Winter 2009: ~60-62 %)."""
+SWING_STALL_RATIO = 0.25
+"""A swing whose ankle advances slower than this share of its mean speed somewhere mid-swing (or slides back) is
+an artefact of the normative curves on a short stride, and advances along the min-jerk blend of its ends instead
+(:meth:`GaitKinematics._forward_only`)."""
 
 _BIG = 1.0e6  # "never" in seconds
 
@@ -677,6 +681,26 @@ class GaitKinematics:
         self, side: int, k: NDArray[np.intp], t: FloatArray, hip: FloatArray
     ) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
         """Swing foot from footfall ``k`` (lifted at its TO) to footfall ``k+1`` (HS)."""
+        p = self.params
+        ankle, pitch, yaw, s, w, a0, a1 = self._swing_path(side, k, t, hip)
+        ankle = self._forward_only(side, k, w, ankle, a0, a1)
+        axes = _foot_axes(yaw, pitch)
+        heel, toe = self._foot_from_ankle(ankle, axes)
+        # toe / heel clearance
+        clear = p.toe_clearance * np.sin(np.pi * s) ** 0.5
+        low = np.minimum(heel[:, 2], toe[:, 2])
+        lift = np.maximum(clear - low, 0.0)
+        ankle[:, 2] += lift
+        heel[:, 2] += lift
+        toe[:, 2] += lift
+        return heel, toe, ankle, axes
+
+    def _swing_path(
+        self, side: int, k: NDArray[np.intp], t: FloatArray, hip: FloatArray
+    ) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray, FloatArray, FloatArray]:
+        """The swing ankle (from the normative curves hanging from ``hip``, blended into the exact ends), sole pitch
+        and yaw at ``t`` of swings ``k``, with the swing fractions ``s``, their min-jerk blend ``w`` and the ankle at
+        toe off ``a0`` and heel strike ``a1``."""
         p, d = self.params, self.dims
         f = self.f[side]
         kn = np.minimum(k + 1, len(f["hs"]) - 1)
@@ -703,16 +727,54 @@ class GaitKinematics:
         a1 = heel1 + d.ankle_forward * ax1[..., 0] + d.ankle_height * ax1[..., 2]
         ankle = ank_nat + (1.0 - w)[:, None] * (a0 - a0n) + w[:, None] * (a1 - a1n)
         pitch = pitch_nat + (1.0 - w) * (pitch0 - p0n) + w * (p.heel_strike_pitch - p1n)
-        axes = _foot_axes(yaw, pitch)
-        heel, toe = self._foot_from_ankle(ankle, axes)
-        # toe / heel clearance
-        clear = p.toe_clearance * np.sin(np.pi * s) ** 0.5
-        low = np.minimum(heel[:, 2], toe[:, 2])
-        lift = np.maximum(clear - low, 0.0)
-        ankle[:, 2] += lift
-        heel[:, 2] += lift
-        toe[:, 2] += lift
-        return heel, toe, ankle, axes
+        return ankle, pitch, yaw, s, w, a0, a1
+
+    def _forward_only(self, side: int, k: NDArray[np.intp], w: FloatArray, ankle: FloatArray,
+                      a0: FloatArray, a1: FloatArray) -> FloatArray:
+        """The swing ankles ``ankle`` ``(n, 3)`` (min-jerk swing fractions ``w``; ``a0`` / ``a1`` the ankle at toe
+        off / heel strike) with the progress along the swing (horizontal, from ``a0`` to ``a1``) of every swing
+        that would stall or slide back mid-swing (:meth:`_stalls`) replaced by the min-jerk blend of its ends.  The
+        normative curves hang a normal stride's excursion from the hip; the end corrections of a short stride (under
+        ~0.4 m: a first step from standing, a frail user's shuffle) then cancel it unevenly, and the foot stopped or
+        slid back by up to 2-3 cm mid-swing and went on, which no foot does.  Other swings are left exactly as they
+        were."""
+        fix = np.array([self._stalls(side, int(kk)) for kk in k], dtype=bool)
+        if not fix.any():
+            return ankle
+        d = (a1 - a0)[fix, :2]
+        dist = np.linalg.norm(d, axis=-1)
+        u = d / np.maximum(dist, 1e-9)[:, None]
+        along = np.einsum("ij,ij->i", (ankle - a0)[fix, :2], u)
+        out = ankle.copy()
+        out[fix, :2] += ((dist * w[fix]) - along)[:, None] * u
+        return out
+
+    def _stalls(self, side: int, k: int) -> bool:
+        """Whether swing ``k`` of foot ``side`` (from footfall ``k``'s toe off to footfall ``k + 1``'s heel strike)
+        stalls or slides back mid-swing: its ankle's speed along the swing somewhere between 15 and 85 % of it under
+        :data:`SWING_STALL_RATIO` of its mean (64 samples; a normal stride's is 0.6-0.7 of it there, the min-jerk
+        blend's 0.49), cached."""
+        cache: dict[tuple[int, int], bool] = self.__dict__.setdefault("_stall_cache", {})
+        key = (side, k)
+        if key not in cache:
+            f = self.f[side]
+            kn = min(k + 1, len(f["hs"]) - 1)
+            t_to, t_hs = float(f["to"][k]), float(f["hs"][kn])
+            stalls = False
+            if t_hs > t_to:
+                s = np.linspace(0.0, 1.0, 64)
+                t = t_to + s * (t_hs - t_to)
+                ankle, _, _, _, _, a0, a1 = self._swing_path(side, np.full(len(s), k, dtype=np.intp), t,
+                                                             self._hip_at(side, t))
+                d = (a1 - a0)[0, :2]
+                dist = float(np.linalg.norm(d))
+                if dist > 1e-3:
+                    along = (ankle[:, :2] - a0[0, :2]) @ (d / dist)
+                    speed = np.diff(along) / np.diff(s)
+                    mid = (s[1:] > 0.15) & (s[:-1] < 0.85)
+                    stalls = bool(np.min(speed[mid]) < SWING_STALL_RATIO * dist)
+            cache[key] = stalls
+        return cache[key]
 
     def _hip_at(self, side: int, t: FloatArray) -> FloatArray:
         t = np.atleast_1d(np.asarray(t, float))
