@@ -674,6 +674,63 @@ def test_a_step_whose_landing_foot_was_not_seen_is_doubted() -> None:
         assert n_good == len(got) - (1 if v_hid < 0.5 and cfg.landing_visibility > 0 else 0)  # ... not pooled
 
 
+def test_a_toe_off_the_tracker_did_not_see_bounds_no_duration() -> None:
+    """A foot hidden from its heel rise into its swing (behind the leading leg, under a trouser hem): its toe off
+    is timed on the tracker's motion model, so the event keeps its time at a quarter of its confidence and the
+    swing, stance, single and double support times it bounds are unknown; the steps themselves, their step times
+    and every other duration stay as they were, and with the rule off nothing changes."""
+    spec = SCENARIOS["normal"]
+    sim = simulate_gait(spec, rng=np.random.default_rng(0))
+    offs = [(int(e.side), e.stamp) for e in sim.events if e.kind == EventKind.TOE_OFF]
+    f_hid, t_hid = offs[len(offs) // 2]
+
+    def hidden(half_s: float) -> list[LegPose]:
+        out = []
+        for p in sim.poses:
+            vis = np.ones((2, 3))
+            if abs(p.stamp - t_hid) <= half_s:
+                vis[f_hid, 1:] = 0.1
+            out.append(replace(p, visibility=vis))
+        return out
+
+    def by_strike(steps: list[Step]) -> dict[float, Step]:
+        pairs, _, _ = match_steps(sim.steps, steps)
+        return {sim.steps[i].stamp: steps[j] for i, j in pairs}
+
+    durations = ("swing_time", "stance_time", "single_support_time", "double_support_time")
+    for half_s, unseen in ((0.15, True), (0.05, False)):  # 0.1 s out of view (three frames): still seen
+        poses = hidden(half_s)
+        off = run_analyzer(poses, sim.floor, config=GaitConfig(toe_off_seen_gap_s=0.0))  # every toe off seen
+        ga = run_analyzer(poses, sim.floor)
+        got, base = by_strike(ga.steps), by_strike(off.steps)
+        assert got.keys() == base.keys() and len(got) == len(sim.steps)
+        tos = [e for e in ga.events if e.kind == EventKind.TOE_OFF]
+        tos0 = [e for e in off.events if e.kind == EventKind.TOE_OFF]
+        assert [e.stamp for e in tos] == [e.stamp for e in tos0]
+        for e, e0 in zip(tos, tos0, strict=True):
+            hid = unseen and int(e.side) == f_hid and abs(e.stamp - t_hid) < 0.05
+            assert e.confidence == pytest.approx(e0.confidence * (0.25 if hid else 1.0))
+        n_unknown = 0
+        for t, st in got.items():
+            b = base[t]
+            assert (st.step_length, st.step_width, st.confidence) == (b.step_length, b.step_width, b.confidence)
+            assert st.step_time == pytest.approx(b.step_time, nan_ok=True)
+            for name in durations:
+                if math.isnan(getattr(st, name)) and not math.isnan(getattr(b, name)):
+                    n_unknown += 1
+                    assert unseen and t > t_hid  # only steps after the hidden toe off lose a duration ...
+                else:
+                    assert getattr(st, name) == pytest.approx(getattr(b, name), nan_ok=True)
+        # ... its own swing and stance (the next step of that foot) and the double / single support of the
+        # steps whose gait cycle holds it
+        assert (n_unknown >= 3) if unseen else n_unknown == 0
+    summary = run_analyzer(hidden(0.15), sim.floor).summary()
+    assert math.isfinite(summary.double_support_percent)  # the other steps' still make the figure
+    for bad in ({"toe_off_seen_gap_s": -0.1}, {"toe_off_seen_gap_s": math.inf}, {"unseen_event_confidence": 1.5}):
+        with pytest.raises(GaitInputError, match=next(iter(bad))):
+            GaitConfig(**bad)
+
+
 def test_a_step_the_tracker_doubted_during_its_swing_is_doubted() -> None:
     """A dip of the tracker's confidence (0.6, below ``swing_min_quality``) in the 0.6 s before a heel strike or the
     0.2 s after it halves that step's confidence; steps whose window misses the dip keep theirs, and with the rule
