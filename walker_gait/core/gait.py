@@ -1174,7 +1174,8 @@ class GaitAnalyzer:
         self._swing_to_t = t_to
 
     def _seen_at(self, a: int, t_e: float, k: int) -> bool:
-        """Whether foot ``a`` was in view around time ``t_e`` (frames up to ``k``): :attr:`GaitConfig.toe_off_seen_gap_s`."""
+        """Whether foot ``a`` was in view around time ``t_e`` (frames up to ``k``), as
+        :attr:`GaitConfig.toe_off_seen_gap_s` says."""
         gap = self.config.toe_off_seen_gap_s
         if gap <= 0:
             return True

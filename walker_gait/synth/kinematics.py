@@ -396,6 +396,7 @@ class GaitKinematics:
         self.plans = feet
         self.f = [ft.arrays() for ft in feet]
         self._nominal_stance = params.step_time * (1.0 + params.double_support)
+        self._stall_cache: dict[tuple[int, int], bool] = {}  # (side, swing) -> whether it stalls (_stalls)
         self._build_pelvis(t_start - 1.0, t_end + 1.0, grid_hz)
 
     # ------------------------------------------------------------------ feet
@@ -754,7 +755,7 @@ class GaitKinematics:
         stalls or slides back mid-swing: its ankle's speed along the swing somewhere between 15 and 85 % of it under
         :data:`SWING_STALL_RATIO` of its mean (64 samples; a normal stride's is 0.6-0.7 of it there, the min-jerk
         blend's 0.49), cached."""
-        cache: dict[tuple[int, int], bool] = self.__dict__.setdefault("_stall_cache", {})
+        cache = self._stall_cache
         key = (side, k)
         if key not in cache:
             f = self.f[side]
