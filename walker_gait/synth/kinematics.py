@@ -739,7 +739,8 @@ class GaitKinematics:
         ~0.4 m: a first step from standing, a frail user's shuffle) then cancel it unevenly, and the foot stopped or
         slid back by up to 2-3 cm mid-swing and went on, which no foot does.  Other swings are left exactly as they
         were."""
-        fix = np.array([self._stalls(side, int(kk)) for kk in k], dtype=bool)
+        swings, which = np.unique(k, return_inverse=True)
+        fix = np.array([self._stalls(side, int(kk)) for kk in swings], dtype=bool)[which]
         if not fix.any():
             return ankle
         d = (a1 - a0)[fix, :2]
