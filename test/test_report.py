@@ -265,6 +265,11 @@ def test_report_copes_with_nans(tmp_path: Path, session) -> None:
     assert parser.errors == []
     assert "nan" not in re.sub(r"data:image/png;base64,[^\"]+", "", text).lower().replace("nanmean", "")
     assert "—" in text
+    assert "4 of 4 steps have no double-support time" in text  # and why: the toe offs the camera did not see
+    full = write_report(tmp_path / "full.html", steps=steps, events=events, poses=poses, summary=summary,
+                        metadata=METADATA)
+    known = sum(1 for st in steps if math.isfinite(st.double_support_time))
+    assert ("have no double-support time" in full.read_text()) == (known < len(steps))
 
 
 def test_report_with_ground_truth(tmp_path: Path, session) -> None:

@@ -812,6 +812,14 @@ def write_report(
         summ_body = _empty("No steps detected: the summary parameters could not be computed.") + summ_body
     summ_body += ('<p class="note">Left/right: the foot whose heel strike ends the step. L/R = left ÷ right '
                   "(1.00 = symmetric). CV = 100 × SD / mean. — = not available.</p>")
+    no_double = sum(1 for st in steps_l if not math.isfinite(st.double_support_time))
+    if no_double:
+        summ_body += (f'<p class="note">{no_double} of {len(steps_l)} steps have no double-support time (and '
+                      "stance, swing and single support are unknown for some): a step's durations are left unknown "
+                      "where the camera did not see the toe off that bounds them (the trailing foot hidden behind "
+                      "the leading leg or under a trouser hem; timed from the tracker's model such toe offs were "
+                      "50-100 ms off), and for the first steps after a start or a gap. The percentages above come "
+                      "from the steps that have them (— where none has).</p>")
     sections.append(_section("summary", "Gait summary", summ_body))
 
     # steps figure
