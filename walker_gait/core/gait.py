@@ -247,10 +247,10 @@ class GaitConfig:
     this at a time.  A toe off the tracker did not see (the trailing foot hidden behind the leading leg or under a
     trouser hem from its heel rise into its swing) is timed on the tracker's motion model, or where the foot comes
     back into view: on the sweeps' tracked poses (set C, sixty-sixth session) 41 of ``occlusion``'s 46 toe offs and
-    40 of ``baggy_trousers``' 48 were unseen, 106 and 48 ms off on average; the seen ones 6-26 ms per scenario.  An unseen toe off keeps its time, which the state machine needs, at
-    ``unseen_event_confidence`` times its confidence, and the durations it bounds (the swing, stance, single and
-    double support times of the steps it belongs to) are reported unknown (NaN) rather than as the model's guess
-    (0 = every toe off counts as seen)."""
+    40 of ``baggy_trousers``' 48 were unseen, 106 and 48 ms off on average; the seen ones 6-26 ms per scenario.  An
+    unseen toe off keeps its time, which the state machine needs, at ``unseen_event_confidence`` times its
+    confidence, and the durations it bounds (the swing, stance, single and double support times of the steps it
+    belongs to) are reported unknown (NaN) rather than as the model's guess (0 = every toe off counts as seen)."""
     unseen_event_confidence: float = 0.25
     """Factor on the confidence of a toe-off event the tracker did not see (``toe_off_seen_gap_s``)."""
     swing_min_quality: float = 0.75
@@ -1159,10 +1159,8 @@ class GaitAnalyzer:
         # the end of a hover (the strike withdrawn) is no toe off: the swing goes on, its next heel strike searched
         # after this time
         if not self._withdraw_hover(a, t_to):
-            conf = self._event_conf(t_to)
             seen = self._seen_at(a, t_to, k)
-            if not seen:
-                conf *= c.unseen_event_confidence
+            conf = self._event_conf(t_to) * (1.0 if seen else c.unseen_event_confidence)
             pos = self._cam_at(t_to, a, _T)
             ev = GaitEvent(stamp=t_to, side=Side(a), kind=EventKind.TOE_OFF, position=pos, confidence=conf)
             self._emit_event(ev)
