@@ -5,9 +5,17 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from walker_gait.core import leg_model as lm
+from walker_gait.core import _jit, kernels, leg_model as lm
 from walker_gait.core.leg_model import BodyFrame, StateLayout as L
 from walker_gait.core.types import ANKLE, HEEL, HIP, KNEE, TOE, FloorPlane
+
+
+@pytest.fixture(params=["numpy", "compiled"])
+def kinematics_code(request: pytest.FixtureRequest, monkeypatch: pytest.MonkeyPatch) -> str:
+    """Run a test with the leg model's numpy kinematics and with its compiled kernel (numba is pinned: imported
+    directly, so a broken install fails here rather than testing numpy twice)."""
+    monkeypatch.setattr(kernels, "compiled", (lambda: None) if request.param == "numpy" else (lambda: _jit))
+    return str(request.param)
 
 
 def _random_states(n: int, seed: int = 0) -> np.ndarray:
@@ -257,7 +265,7 @@ def _box_states(n: int, seed: int) -> np.ndarray:
     return np.concatenate([x, crossed])
 
 
-def test_forward_kinematics_matches_per_particle_reference() -> None:
+def test_forward_kinematics_matches_per_particle_reference(kinematics_code: str) -> None:
     x = _box_states(40, seed=11)
     kin, ref = lm.forward_kinematics(x), _reference_kinematics(x)
     for name in ("segments", "radii", "points", "foot_lateral"):
@@ -266,7 +274,7 @@ def test_forward_kinematics_matches_per_particle_reference() -> None:
     np.testing.assert_allclose(lm.hip_positions(x), ref.points[:, :, HIP], rtol=0, atol=1e-12)
 
 
-def test_sole_heights_and_collisions_match_per_pair_reference() -> None:
+def test_sole_heights_and_collisions_match_per_pair_reference(kinematics_code: str) -> None:
     x = _box_states(40, seed=12)
     kin = lm.forward_kinematics(x)
     # sole corners: both ends of the foot axis +- the sole's half-width (FOOT_HALF_WIDTH * foot length) along
@@ -311,7 +319,7 @@ def test_segment_distance_degenerate_and_parallel_segments() -> None:
         np.testing.assert_allclose(lm.segment_distances(p1, q1, p2, q2), expected, rtol=0, atol=1e-9)
 
 
-def test_enforce_constraints_replaces_only_bad_particles() -> None:
+def test_enforce_constraints_replaces_only_bad_particles(kinematics_code: str) -> None:
     x = _box_states(40, seed=14)
     fb = np.tile(lm.neutral_state(), (len(x), 1))
     y, kin, replaced = lm.enforce_constraints(x, fallback=fb)
@@ -324,6 +332,30 @@ def test_enforce_constraints_replaces_only_bad_particles() -> None:
     for name in ("segments", "radii", "points", "foot_lateral"):
         np.testing.assert_allclose(getattr(kin, name), getattr(ref, name), rtol=0, atol=1e-12, err_msg=name)
         np.testing.assert_array_equal(getattr(kin, name)[~replaced], getattr(kin0, name)[~replaced])
+
+
+def test_compiled_kinematics_are_numpys_bit_for_bit(monkeypatch: pytest.MonkeyPatch) -> None:
+    # states anywhere in the box, most of them breaking a constraint (legs through each other, roots off their
+    # limits), some near the collision test's threshold: the same states, kinematics and decisions either way
+    rng = np.random.default_rng(21)
+    n = 400
+    x = lm.STATE_LOWER + (lm.STATE_UPPER - lm.STATE_LOWER) * rng.random((n, lm.STATE_DIM))
+    x[:, L.ROOT_X : L.ROOT_Y + 1] = rng.normal(0.0, 0.3, (n, 2))
+    x[:, L.ANGLES] += rng.normal(0.0, 0.3, (n, 12))  # some outside their limits: clipped
+    x = np.concatenate([x, _box_states(40, seed=22)])
+    fb = _random_states(len(x), seed=23)
+    got = {}
+    for name, jit in (("numpy", None), ("compiled", _jit)):
+        with monkeypatch.context() as mp:
+            mp.setattr(kernels, "compiled", lambda jit=jit: jit)
+            got[name] = (lm.forward_kinematics(x), lm.enforce_constraints(x, fallback=fb), lm.enforce_constraints(x))
+    (kin_a, (xa, ka, ba), (xa0, ka0, ba0)), (kin_b, (xb, kb, bb), (xb0, kb0, bb0)) = got["numpy"], got["compiled"]
+    assert 0.2 * len(x) < ba.sum() < len(x)
+    for a, b in ((xa, xb), (ba, bb), (xa0, xb0), (ba0, bb0)):
+        np.testing.assert_array_equal(a, b)
+    for name in ("segments", "radii", "points", "foot_lateral"):
+        for a, b in ((kin_a, kin_b), (ka, kb), (ka0, kb0)):
+            np.testing.assert_array_equal(getattr(a, name), getattr(b, name), err_msg=name)
 
 
 def _pitches(points: np.ndarray) -> np.ndarray:

@@ -529,6 +529,41 @@ def test_2d_cue_of_both_backends_agree(frame) -> None:  # noqa: ANN001
             np.testing.assert_allclose(got["compiled"], got["numpy"], rtol=1e-12, atol=0)
 
 
+def test_3d_cue_of_both_backends_agree(frame) -> None:  # noqa: ANN001
+    from walker_gait.core import _jit
+
+    rng = np.random.default_rng(4)
+    x = np.tile(_truth(), (40, 1))
+    x[:, L.ROOT_X] += rng.normal(0.0, 0.1, 40)
+    x[:, L.ANGLES] += rng.normal(0.0, 0.2, (40, 12))
+    seg, rad = _cam(lm.enforce_constraints(x)[0])
+    seg[0, 0] = [[0.1, 0.2, 0.02], [0.1, 0.3, 0.04]]  # in front of the camera's near limit: out of the image
+    depth = frame.depth.copy()
+    unknown = np.zeros(depth.shape, bool)
+    unknown[200:260, 250:400] = True  # a hole over part of the legs
+    depth[unknown] = np.nan
+    fg = frame.points[rng.choice(len(frame.points), 128, replace=False)]
+    cues = (None, CueImage.from_depth(frame.depth, intrinsics=KINECT, stride=10, floor=FLOOR),
+            CueImage.from_depth(depth, intrinsics=KINECT, stride=10, floor=FLOOR, min_height=0.03, unknown=unknown))
+    ref_costs = rng.uniform(0.0, 0.05, 128).astype(np.float32)
+    tried = 0
+    for cue in cues:
+        for params in (Cue3DParams(n_skeleton=6), Cue3DParams(n_skeleton=4, occlusion_aware=True, truncate=0.15)):
+            for ref, active in ((None, None), (ref_costs, np.array([True, True, False, True, False, True]))):
+                got = {}
+                for name, jit in (("numpy", None), ("compiled", _jit)):
+                    with pytest.MonkeyPatch.context() as mp:
+                        mp.setattr(kernels, "compiled", lambda jit=jit: jit)
+                        got[name] = log_likelihood_3d(seg, rad, fg=fg, params=params, ref_fg_costs=ref,
+                                                      active=active, cue_image=cue, work=Workspace())
+                assert np.all(np.isfinite(got["numpy"])) and np.ptp(got["numpy"]) > 0
+                # the same terms; the distances in float32 by another formula (see the surface costs' test): within
+                # 1e-4 log units, where one skeleton point counted differently moves a particle by ~0.01-0.1
+                np.testing.assert_allclose(got["compiled"], got["numpy"], rtol=0, atol=1e-4)
+                tried += 1
+    assert tried == 12
+
+
 def test_a_broken_numba_install_falls_back_to_numpy_with_a_warning(monkeypatch) -> None:  # noqa: ANN001
     import builtins
     import sys

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from walker_gait.bench.tracker import KINECT, own_sequence, render_frame
-from walker_gait.core import leg_model as lm
+from walker_gait.core import _jit, kernels, leg_model as lm
 from walker_gait.core.tracker import (
     DEFAULT,
     HEEL_RISE_BEHIND,
@@ -116,6 +116,29 @@ def test_camera_segments_give_the_foot_an_elliptical_section() -> None:
         assert np.all((toward[0, j] >= lo - 1e-12) & (toward[0, j] <= hi + 1e-12))  # between the two semi-axes
         assert np.all(np.abs(toward[0, j] - rad[0, j]) < 0.1 * rad[0, j])  # nearer the height
     assert DEFAULT.elliptic_foot and not PAPER.elliptic_foot
+
+
+def test_compiled_camera_segments_agree_with_numpy(monkeypatch: pytest.MonkeyPatch) -> None:
+    rng = np.random.default_rng(5)
+    x = np.tile(lm.neutral_state(right_hip_xy=(-0.85, -0.09)), (300, 1))
+    x[:, lm.StateLayout.ANGLES] += rng.normal(0.0, 0.4, (300, 12))
+    x[:, lm.StateLayout.HIP_AZ] += rng.normal(0.0, 0.5, 300)
+    x, kin, _ = lm.enforce_constraints(x)
+    # a foot whose axis points straight at the camera: its section's orientation falls back to its lateral axis
+    body = lm.BodyFrame.from_floor(FloorPlane.from_camera_pose(height=0.70, pitch=0.50), mounting="facing_user")
+    seg_c = body.to_camera(kin.segments[0, 1, 2])
+    kin.segments[0, 1, 2, 1] = body.to_body(seg_c[0] * (1.0 + 0.1 / np.linalg.norm(seg_c[0])))
+    for legs in ((0, 1), (0,), (1,)):
+        for elliptic in (False, True):
+            got = {}
+            for name, jit in (("numpy", None), ("compiled", _jit)):
+                with monkeypatch.context() as mp:
+                    mp.setattr(kernels, "compiled", lambda jit=jit: jit)
+                    got[name] = camera_segments(kin, body, legs, elliptic_foot=elliptic)
+            for a, b in zip(got["numpy"], got["compiled"]):
+                assert a.shape == b.shape == (300, 3 * len(legs)) + a.shape[2:]
+                np.testing.assert_allclose(b, a, rtol=1e-12, atol=1e-15)
+            assert (got["compiled"][1] is got["compiled"][2]) == (not elliptic)
 
 
 def test_tracks_short_sequence_without_swaps(seq) -> None:  # noqa: ANN001

@@ -284,3 +284,307 @@ def shoe_strip(near, toe, other_heel, other_toe, u0, u1, norm, ahead, behind, ha
             z_out[k] = z
             k += 1
     return k
+
+
+# The leg model's forward kinematics and constraints (:mod:`walker_gait.core.leg_model`) run a dozen times a frame on
+# every particle; in numpy they are some 150 whole-array operations on arrays of a few hundred elements each, so
+# call overhead, not arithmetic, is their cost.  This kernel makes one pass over the particles with numpy's arithmetic
+# term by term (the same products, sums and their order; the cosines and sines come from numpy): the same kinematics
+# and the same constraint decisions, bit for bit (tested).
+
+_CHAIN_SIG = ("void(float64[:, ::1], float64[:, ::1], float64[:, ::1], float64[::1], boolean, float64[:, :, :, :, ::1], "
+              "float64[:, :, :, ::1], float64[:, :, :, ::1], float64[:, :, ::1], boolean[::1])")
+
+
+@njit(inline="always")
+def _nmax(a, b):  # pragma: no cover - compiled
+    """``np.maximum`` of two floats (NaN propagates)."""
+    return a if (a >= b) | (a != a) else b
+
+
+@njit(inline="always")
+def _nmin(a, b):  # pragma: no cover - compiled
+    """``np.minimum`` of two floats (NaN propagates)."""
+    return a if (a <= b) | (a != a) else b
+
+
+@njit(inline="always")
+def _turn(ax, i, j, c, s):  # pragma: no cover - compiled
+    """``R <- R E`` for frame axes ``ax`` ``(3 axes, 3 xyz)``: :func:`walker_gait.core.leg_model._turn_axes`."""
+    for k in range(3):
+        a_i = ax[i, k]
+        a_j = ax[j, k]
+        ax[i, k] = a_i * c + a_j * s
+        ax[j, k] = a_j * c - a_i * s
+
+
+@njit(_CHAIN_SIG, cache=True, nogil=True, error_model="numpy")
+def leg_chain(x, cs, sn, k, constrain, seg, radii, points, lateral, bad):  # pragma: no cover - compiled
+    """Forward kinematics of states ``x`` ``(P, 23)`` into the :class:`walker_gait.core.leg_model.Kinematics` arrays
+    ``seg`` ``(P, 2, 3, 2, 3)``, ``radii`` ``(P, 2, 3, 2)``, ``points`` ``(P, 2, 5, 3)``, ``lateral`` ``(P, 2, 3)``.
+
+    ``cs`` / ``sn`` ``(14, P)``: cosines / sines of the rotation angles (pelvis azimuth, elevation, then the 12 signed
+    joint angles joint-major, as :func:`walker_gait.core.leg_model._chain` makes them); ``k``: the model's constants
+    (:data:`walker_gait.core.leg_model._CHAIN_CONSTANTS`).  With ``constrain`` (``x`` already clipped to its box) the
+    root height of each state is shifted, in place, to put its lowest sole on the floor, the kinematics with it, and
+    ``bad`` ``(P,)`` flags states whose left and right segments intersect or whose root height leaves its limits
+    (:func:`walker_gait.core.leg_model.enforce_constraints`); without, ``bad`` is left alone.
+    """
+    back_k, down_k, heel_r, toe_r, inset = k[0], k[1], k[2], k[3], k[4]
+    thigh_taper, calf_lo, calf_span, calf_taper, calf_rise = k[5], k[6], k[7], k[8], k[9]
+    half_width_k, coll_calf, coll_foot, slack, z_lo, z_hi = k[10], k[11], k[12], k[13], k[14], k[15]
+    n_p = x.shape[0]
+    ax = np.empty((3, 3))
+    ends = np.empty((2, 7, 3))
+    crad = np.empty((2, 3, 2))
+    for p in range(n_p):
+        d = x[p, 0]
+        rx, ry, rz = x[p, 3], x[p, 4], x[p, 5]
+        l_thigh, l_calf, l_foot = x[p, 6], x[p, 7], x[p, 8]
+        c_az, s_az, c_el, s_el = cs[0, p], sn[0, p], cs[1, p], sn[1, p]
+        # hips: the left one at a spherical offset from the right one
+        ends[0, 0, 0] = -(s_az * c_el) * d + rx
+        ends[0, 0, 1] = (c_az * c_el) * d + ry
+        ends[0, 0, 2] = s_el * d + rz
+        ends[1, 0, 0] = rx
+        ends[1, 0, 1] = ry
+        ends[1, 0, 2] = rz
+        back = back_k * l_foot
+        down = down_k * l_foot
+        fwd_toe = back + l_foot
+        start = inset * (heel_r * l_foot)
+        end = inset * (toe_r * l_foot)
+        for side in range(2):
+            ax[0, 0] = c_az
+            ax[0, 1] = s_az
+            ax[0, 2] = 0.0
+            ax[1, 0] = -s_az
+            ax[1, 1] = c_az
+            ax[1, 2] = 0.0
+            ax[2, 0] = 0.0
+            ax[2, 1] = 0.0
+            ax[2, 2] = 1.0
+            r = 2 + side
+            _turn(ax, 2, 0, cs[r, p], sn[r, p])  # hip flexion
+            _turn(ax, 1, 2, cs[r + 2, p], sn[r + 2, p])  # abduction
+            _turn(ax, 0, 1, cs[r + 4, p], sn[r + 4, p])  # rotation
+            e = ends[side]
+            for q in range(3):
+                e[1, q] = e[0, q] - ax[2, q] * l_thigh
+            _turn(ax, 2, 0, cs[r + 6, p], sn[r + 6, p])  # knee
+            for q in range(3):
+                e[2, q] = e[1, q] - ax[2, q] * l_calf
+            _turn(ax, 2, 0, cs[r + 8, p], sn[r + 8, p])  # ankle flexion
+            _turn(ax, 1, 2, cs[r + 10, p], sn[r + 10, p])  # inversion
+            for q in range(3):
+                dn = ax[2, q] * down
+                e[3, q] = (ax[0, q] * back + dn) + e[2, q]
+                e[4, q] = (ax[0, q] * fwd_toe + dn) + e[2, q]
+                e[5, q] = ax[0, q] * start + e[3, q]
+                e[6, q] = e[4, q] - ax[0, q] * end
+                lateral[p, side, q] = ax[1, q]
+        rc = x[p, 10]
+        t = _nmin(_nmax((rc - calf_lo) / calf_span, 0.0), 1.0)
+        for side in range(2):
+            radii[p, side, 0, 0] = x[p, 9] * 1.0
+            radii[p, side, 0, 1] = x[p, 9] * thigh_taper
+            radii[p, side, 1, 0] = rc * 1.0
+            radii[p, side, 1, 1] = rc * (calf_taper + calf_rise * t)
+            radii[p, side, 2, 0] = l_foot * heel_r
+            radii[p, side, 2, 1] = l_foot * toe_r
+        if constrain:
+            low = 0.0
+            for side in range(2):
+                drop = abs(radii[p, side, 2, 0] * half_width_k * lateral[p, side, 2])
+                h = _nmin(ends[side, 5, 2], ends[side, 6, 2]) - drop
+                low = h if side == 0 else _nmin(low, h)
+            dz = -low
+            x[p, 5] = x[p, 5] + dz
+            for side in range(2):
+                for j in range(7):
+                    ends[side, j, 2] = ends[side, j, 2] + dz
+            for side in range(2):
+                for s in range(3):
+                    for j in range(2):
+                        crad[side, s, j] = radii[p, side, s, j]
+                for j in range(2):
+                    crad[side, 1, j] = _nmin(crad[side, 1, j], coll_calf)
+                crad[side, 2, 0] = crad[side, 2, 0] * coll_foot
+            hit = False
+            for i in range(3):
+                a0 = 0 if i == 0 else (1 if i == 1 else 5)
+                a1 = 1 if i == 0 else (2 if i == 1 else 6)
+                for j in range(3):
+                    b0 = 0 if j == 0 else (1 if j == 1 else 5)
+                    b1 = 1 if j == 0 else (2 if j == 1 else 6)
+                    p1x, p1y, p1z = ends[0, a0, 0], ends[0, a0, 1], ends[0, a0, 2]
+                    p2x, p2y, p2z = ends[1, b0, 0], ends[1, b0, 1], ends[1, b0, 2]
+                    d1x, d1y, d1z = ends[0, a1, 0] - p1x, ends[0, a1, 1] - p1y, ends[0, a1, 2] - p1z
+                    d2x, d2y, d2z = ends[1, b1, 0] - p2x, ends[1, b1, 1] - p2y, ends[1, b1, 2] - p2z
+                    rrx, rry, rrz = p1x - p2x, p1y - p2y, p1z - p2z
+                    aa = (d1x * d1x + d1y * d1y) + d1z * d1z
+                    bb = (d1x * d2x + d1y * d2y) + d1z * d2z
+                    cc = (d1x * rrx + d1y * rry) + d1z * rrz
+                    ee = (d2x * d2x + d2y * d2y) + d2z * d2z
+                    ff = (d2x * rrx + d2y * rry) + d2z * rrz
+                    eps = 1e-12
+                    denom = aa * ee - bb * bb
+                    sv = _nmin(_nmax((bb * ff - cc * ee) / _nmax(denom, eps), 0.0), 1.0)
+                    sv = sv if denom > eps else 0.0
+                    t_free = (bb * sv + ff) / _nmax(ee, eps)
+                    tv = _nmin(_nmax(t_free, 0.0), 1.0)
+                    if tv != t_free:
+                        sv = _nmin(_nmax((bb * tv - cc) / _nmax(aa, eps), 0.0), 1.0)
+                    qx = (p1x + d1x * sv) - (p2x + d2x * tv)
+                    qy = (p1y + d1y * sv) - (p2y + d2y * tv)
+                    qz = (p1z + d1z * sv) - (p2z + d2z * tv)
+                    dist = np.sqrt((qx * qx + qy * qy) + qz * qz)
+                    thresh = (crad[0, i, 0] + crad[0, i, 1]) / 2.0
+                    thresh = (thresh + (crad[1, j, 0] + crad[1, j, 1]) / 2.0) * slack
+                    hit = hit | (dist < thresh)
+            z = x[p, 5]
+            bad[p] = hit | (z < z_lo) | (z > z_hi)
+        for side in range(2):
+            e = ends[side]
+            for q in range(3):
+                for j in range(5):
+                    points[p, side, j, q] = e[j, q]
+                seg[p, side, 0, 0, q] = e[0, q]
+                seg[p, side, 0, 1, q] = e[1, q]
+                seg[p, side, 1, 0, q] = e[1, q]
+                seg[p, side, 1, 1, q] = e[2, q]
+                seg[p, side, 2, 0, q] = e[5, q]
+                seg[p, side, 2, 1, q] = e[6, q]
+
+
+_CAM_SIG = ("void(float64[:, :, :, :, ::1], float64[:, :, :, ::1], float64[:, :, ::1], int64[::1], float64[:, ::1], "
+            "float64[::1], boolean, float64, float64[:, :, :, ::1], float64[:, :, ::1], float64[:, :, ::1])")
+
+
+@njit(_CAM_SIG, cache=True, nogil=True, error_model="numpy")
+def camera_segments(seg, radii, lateral, legs, rot, trans, elliptic, half_width_k, seg_c, toward,
+                    sil):  # pragma: no cover - compiled (tested against the numpy code)
+    """:func:`walker_gait.core.tracker.camera_segments` in one pass: the segments of ``legs`` moved to the camera
+    frame (``p rot.T + trans``) into ``seg_c`` ``(P, S, 2, 3)``, their radii towards the camera and silhouette
+    half-widths into ``toward`` / ``sil`` ``(P, S, 2)``; with ``elliptic`` the feet's by
+    :func:`walker_gait.core.likelihood.elliptic_section_radii` (half-width ``half_width_k`` times the heel radius).
+    The rotation's sums are taken in order (numpy's matrix product may fuse multiply-adds: the two agree to
+    rounding)."""
+    n_p = seg.shape[0]
+    for p in range(n_p):
+        for li in range(legs.shape[0]):
+            leg = legs[li]
+            for s in range(3):
+                o = 3 * li + s
+                for e in range(2):
+                    x, y, z = seg[p, leg, s, e, 0], seg[p, leg, s, e, 1], seg[p, leg, s, e, 2]
+                    for i in range(3):
+                        seg_c[p, o, e, i] = ((x * rot[i, 0] + y * rot[i, 1]) + z * rot[i, 2]) + trans[i]
+                    toward[p, o, e] = radii[p, leg, s, e]
+                    sil[p, o, e] = radii[p, leg, s, e]
+            if not elliptic:
+                continue
+            o = 3 * li + 2
+            lx, ly, lz = lateral[p, leg, 0], lateral[p, leg, 1], lateral[p, leg, 2]
+            cl0 = (lx * rot[0, 0] + ly * rot[0, 1]) + lz * rot[0, 2]
+            cl1 = (lx * rot[1, 0] + ly * rot[1, 1]) + lz * rot[1, 2]
+            cl2 = (lx * rot[2, 0] + ly * rot[2, 1]) + lz * rot[2, 2]
+            ax, ay, az = seg_c[p, o, 0, 0], seg_c[p, o, 0, 1], seg_c[p, o, 0, 2]
+            bx, by, bz = seg_c[p, o, 1, 0], seg_c[p, o, 1, 1], seg_c[p, o, 1, 2]
+            a0, a1, a2 = bx - ax, by - ay, bz - az
+            n = max(np.sqrt((a0 * a0 + a1 * a1) + a2 * a2), 1e-9)
+            a0, a1, a2 = a0 / n, a1 / n, a2 / n
+            u0, u1, u2 = a1 * cl2 - a2 * cl1, a2 * cl0 - a0 * cl2, a0 * cl1 - a1 * cl0  # up = axis x lateral
+            s0, s1, s2 = 0.5 * (ax + bx), 0.5 * (ay + by), 0.5 * (az + bz)
+            n = max(np.sqrt((s0 * s0 + s1 * s1) + s2 * s2), 1e-9)
+            s0, s1, s2 = s0 / n, s1 / n, s2 / n
+            q0, q1, q2 = a1 * s2 - a2 * s1, a2 * s0 - a0 * s2, a0 * s1 - a1 * s0  # perp = axis x sight
+            n = np.sqrt((q0 * q0 + q1 * q1) + q2 * q2)
+            if n > 1e-6:
+                q0, q1, q2 = q0 / n, q1 / n, q2 / n
+            else:  # the axis along the line of sight
+                q0, q1, q2 = cl0, cl1, cl2
+            w0, w1, w2 = q1 * a2 - q2 * a1, q2 * a0 - q0 * a2, q0 * a1 - q1 * a0  # toward = perp x axis
+            hw = radii[p, leg, 2, 0] * half_width_k
+            pl = (q0 * cl0 + q1 * cl1) + q2 * cl2
+            pu = (q0 * u0 + q1 * u1) + q2 * u2
+            wl = (w0 * cl0 + w1 * cl1) + w2 * cl2
+            wu = (w0 * u0 + w1 * u1) + w2 * u2
+            for e in range(2):
+                h = radii[p, leg, 2, e]
+                sil[p, o, e] = np.sqrt((hw * pl) ** 2 + (h * pu) ** 2)
+                toward[p, o, e] = np.sqrt((hw * wl) ** 2 + (h * wu) ** 2)
+
+
+_CUE3D_SIG = ("void(float64[:, :, :, ::1], float64[:, :, ::1], float64[::1], float32[::1], float32[::1], float32[::1], "
+              "float32[::1], boolean, float32, boolean[::1], float64[::1], float64, float64, boolean, float64, float64, "
+              "float64, float64, int64, int64, float32[::1], boolean[::1], boolean, float64, float32, float32[:, ::1], "
+              "float32[:, ::1], int64[::1], float32[:, :, ::1], float32[:, ::1], int32[:, ::1], float32[::1])")
+
+
+@njit(_CUE3D_SIG, cache=True, nogil=True, error_model="numpy")
+def cue3d_terms(seg, rad, t, fgx, fgy, fgz, ref, use_ref, truncate, active, normal, offset, cut_level, occ_on, fx,
+                fy, cx, cy, width, height, depth, unknown, has_unknown, tol, occ_cost, mf, fm, count, pts32, w32,
+                row_min_bits, scratch):  # pragma: no cover - compiled (tested against the numpy code)
+    """The terms of :func:`walker_gait.core.likelihood.log_likelihood_3d` in one pass, numpy's arithmetic term by
+    term: ``mf`` ``(P, M)`` the d_MF terms (0 for a skeleton point left out), ``fm`` ``(P, N)`` the d_FM terms,
+    ``count`` ``(P,)`` the points counted in d_MF (at least 1); numpy then takes their sum and mean as before.
+
+    ``seg`` ``(P, S, 2, 3)`` camera-frame segments, ``rad`` ``(P, S, 2)`` their radii, ``t`` ``(K,)`` the skeleton
+    points' positions along them (``M = S K``); ``fgx, fgy, fgz`` ``(N,)`` the foreground; ``ref`` ``(N,)`` the fixed
+    parts' costs (``use_ref``); ``truncate`` the distance cap (inf: none); ``active`` ``(S,)`` segments in d_MF; a point
+    whose surface stays under ``cut_level`` over the floor plane (``normal``, ``offset``; -inf: no cut) is left out;
+    with ``occ_on`` a point out of the ``width x height`` cue image (``fx, fy, cx, cy``), over a pixel without depth
+    (``unknown``, flat, ``has_unknown``) or behind observed depth (flat ``depth``) by more than ``tol`` costs
+    ``occ_cost``.  ``pts32``, ``w32``, ``row_min_bits``, ``scratch``: work arrays.
+    """
+    n_p, n_s = rad.shape[0], rad.shape[1]
+    k = t.shape[0]
+    for p in range(n_p):
+        for s in range(n_s):
+            ax, ay, az = seg[p, s, 0, 0], seg[p, s, 0, 1], seg[p, s, 0, 2]
+            dx, dy, dz = seg[p, s, 1, 0] - ax, seg[p, s, 1, 1] - ay, seg[p, s, 1, 2] - az
+            r0 = rad[p, s, 0]
+            dr = rad[p, s, 1] - r0
+            for j in range(k):
+                pts32[p, s * k + j, 0] = np.float32(dx * t[j] + ax)
+                pts32[p, s * k + j, 1] = np.float32(dy * t[j] + ay)
+                pts32[p, s * k + j, 2] = np.float32(dz * t[j] + az)
+                w32[p, s * k + j] = np.float32(r0 + dr * t[j])
+    surface_costs(pts32, w32, fgx, fgy, fgz, row_min_bits, fm, scratch)
+    row_min = row_min_bits.view(np.float32)
+    n = fgx.shape[0]
+    for p in range(n_p):
+        f = fm[p]
+        if use_ref:
+            for i in range(n):
+                f[i] = ref[i] if ref[i] < f[i] else f[i]
+        for i in range(n):
+            f[i] = truncate if truncate < f[i] else f[i]
+        cnt = 0
+        for s in range(n_s):
+            ax, ay, az = seg[p, s, 0, 0], seg[p, s, 0, 1], seg[p, s, 0, 2]
+            dx, dy, dz = seg[p, s, 1, 0] - ax, seg[p, s, 1, 1] - ay, seg[p, s, 1, 2] - az
+            r0 = rad[p, s, 0]
+            dr = rad[p, s, 1] - r0
+            for j in range(k):
+                m = s * k + j
+                v = abs(row_min[p, m] - w32[p, m])
+                v = truncate if truncate < v else v
+                x, y, z = dx * t[j] + ax, dy * t[j] + ay, dz * t[j] + az
+                w = r0 + dr * t[j]
+                keep = active[s] & (not (((x * normal[0] + y * normal[1]) + z * normal[2]) + offset + w < cut_level))
+                if occ_on:
+                    u = np.rint((fx * x) / z + cx)
+                    vv = np.rint((fy * y) / z + cy)
+                    inside = (z > 0.05) & (u >= 0) & (u < width) & (vv >= 0) & (vv < height)
+                    occ = not inside
+                    if inside:
+                        idx = int(vv * width + u)
+                        obs = depth[idx]
+                        occ = ((obs > 0) & (obs < z - w - tol)) | (has_unknown and unknown[idx])
+                    if occ:
+                        v = occ_cost
+                mf[p, m] = v if keep else np.float32(0.0)
+                cnt += 1 if keep else 0
+        count[p] = cnt if cnt > 1 else 1

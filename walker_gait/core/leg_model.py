@@ -64,6 +64,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from walker_gait.core import kernels
 from walker_gait.core.types import ANKLE, HEEL, HIP, KNEE, TOE, FloorPlane
 
 FloatArray = NDArray[np.float64]
@@ -361,6 +362,18 @@ def _fill_hips(
     left += right
 
 
+def _rotation_cos_sin(x: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """Cosines and sines ``(14, P)`` of the rotation angles of ``(P, 23)`` states: [pelvis azimuth, elevation, the 12
+    signed joint angles joint-major (``_LEG_ANGLE_SIGNS``)] x particle."""
+    p = x.shape[0]
+    xt = x.T
+    ang = np.empty((14, p))
+    ang[:2] = xt[L.HIP_AZ : L.HIP_EL + 1]
+    leg_angles = xt[L.ANGLES].reshape(2, 6, p).transpose(1, 0, 2)  # [joint, side, particle]
+    np.multiply(leg_angles, _LEG_ANGLE_SIGNS, out=ang[2:].reshape(6, 2, p))
+    return np.cos(ang), np.sin(ang)
+
+
 def _chain(x: FloatArray) -> _Chain:
     """Forward kinematics of ``(P, 23)`` float64 states in the internal layout.
 
@@ -369,12 +382,7 @@ def _chain(x: FloatArray) -> _Chain:
     """
     p = x.shape[0]
     xt = x.T
-    # rotation angles [pelvis azimuth, elevation, 12 signed joint angles (joint-major)] x particle
-    ang = np.empty((14, p))
-    ang[:2] = xt[L.HIP_AZ : L.HIP_EL + 1]
-    leg_angles = xt[L.ANGLES].reshape(2, 6, p).transpose(1, 0, 2)  # [joint, side, particle]
-    np.multiply(leg_angles, _LEG_ANGLE_SIGNS, out=ang[2:].reshape(6, 2, p))
-    cos, sin = np.cos(ang), np.sin(ang)
+    cos, sin = _rotation_cos_sin(x)
     # joint cosines/sines and segment lengths, broadcast once to the axes' shape (3, 2, P)
     c_leg, s_leg, lengths = np.empty((6, 3, 2, p)), np.empty((6, 3, 2, p)), np.empty((3, 3, 2, p))
     c_leg[...] = cos[2:].reshape(6, 1, 2, p)
@@ -442,9 +450,36 @@ def hip_positions(states: FloatArray) -> FloatArray:
     return np.stack([right + off, right], axis=1)
 
 
+_CHAIN_CONSTANTS: FloatArray = np.array([
+    -HEEL_BACK, -ANKLE_HEIGHT, FOOT_HEEL_RADIUS, FOOT_TOE_RADIUS, FOOT_CAP_INSET, THIGH_TAPER, LOOSE_CALF_RADIUS[0],
+    LOOSE_CALF_RADIUS[1] - LOOSE_CALF_RADIUS[0], CALF_TAPER, 1.0 - CALF_TAPER, FOOT_HALF_WIDTH / FOOT_HEEL_RADIUS,
+    COLLISION_CALF_RADIUS, COLLISION_FOOT_RADIUS / FOOT_HEEL_RADIUS, COLLISION_SLACK, _LIMITS[L.ROOT_Z, 0],
+    _LIMITS[L.ROOT_Z, 1],
+])
+"""The model's constants as the compiled chain (:func:`walker_gait.core._jit.leg_chain`) takes them, each the value
+the numpy code computes with (``-HEEL_BACK``, the calf's taper span, ...)."""
+
+
+def _compiled_kinematics(jit: object, x: FloatArray, *, constrain: bool) -> tuple[Kinematics, BoolArray]:
+    """:func:`_chain` (and with ``constrain`` the floor contact and the collision test of :func:`enforce_constraints`,
+    ``x`` shifted in place) by the compiled kernel: ``(kinematics, bad)``.  ``x`` ``(P, 23)`` C-contiguous float64."""
+    p = x.shape[0]
+    cos, sin = _rotation_cos_sin(x)
+    kin = Kinematics(segments=np.empty((p, 2, 3, 2, 3)), radii=np.empty((p, 2, 3, 2)), points=np.empty((p, 2, 5, 3)),
+                     foot_lateral=np.empty((p, 2, 3)))
+    bad = np.zeros(p, dtype=bool)
+    jit.leg_chain(x, cos, sin, _CHAIN_CONSTANTS, constrain, kin.segments, kin.radii,  # type: ignore[attr-defined]
+                  kin.points, kin.foot_lateral, bad)
+    return kin, bad
+
+
 def forward_kinematics(states: FloatArray) -> Kinematics:
     """Vectorised forward kinematics of ``(P, 23)`` (or ``(23,)``) states, body frame."""
-    return _chain(np.atleast_2d(np.asarray(states, dtype=np.float64))).kinematics()
+    x = np.ascontiguousarray(np.atleast_2d(np.asarray(states, dtype=np.float64)))
+    jit = kernels.compiled()
+    if jit is not None:
+        return _compiled_kinematics(jit, x, constrain=False)[0]
+    return _chain(x).kinematics()
 
 
 def joint_angles(state: FloatArray) -> FloatArray:
@@ -687,6 +722,15 @@ def enforce_constraints(
     Returns ``(states, kinematics, replaced)`` with kinematics of the returned states.
     """
     x = clip_to_limits(np.atleast_2d(np.asarray(states, dtype=np.float64)))
+    jit = kernels.compiled()
+    if jit is not None:  # the same arithmetic, compiled (tested bit for bit)
+        kin, bad = _compiled_kinematics(jit, x, constrain=True)
+        if fallback is not None and bad.any():
+            x[bad] = np.atleast_2d(fallback)[bad]
+            sub, _ = _compiled_kinematics(jit, np.ascontiguousarray(x[bad]), constrain=False)
+            for name in ("segments", "radii", "points", "foot_lateral"):
+                getattr(kin, name)[bad] = getattr(sub, name)
+        return x, kin, bad
     chain = _chain(x)
     dz = -_lowest_sole(chain)
     x[:, L.ROOT_Z] += dz

@@ -247,6 +247,10 @@ def log_likelihood_3d(
     n_fg = fg.shape[0]
     if n_fg == 0:
         return np.zeros(p)
+    jit = kernels.compiled()
+    if jit is not None:
+        return _log_likelihood_3d_compiled(jit, segments, radii, fg=fg, params=params, ref_fg_costs=ref_fg_costs,
+                                           active=active, cue_image=cue_image, work=work)
     pts, w = skeleton_points(segments, radii, n=params.n_skeleton)
     k = params.n_skeleton + 2
     w32 = w.reshape(p, s * k).astype(np.float32)
@@ -271,6 +275,51 @@ def log_likelihood_3d(
     d_fm = fm.mean(axis=1)
     d1 = 0.5 * (d_fm + d_mf)
     return -params.lam * d1.astype(np.float64)
+
+
+def _log_likelihood_3d_compiled(
+    jit: object, segments: FloatArray, radii: FloatArray, *, fg: FloatArray, params: Cue3DParams,
+    ref_fg_costs: F32 | None, active: BoolArray | None, cue_image: CueImage | None, work: Workspace | None,
+) -> FloatArray:
+    """:func:`log_likelihood_3d` with its terms from one compiled pass (:func:`walker_gait.core._jit.cue3d_terms`:
+    numpy's arithmetic term by term, the same log likelihoods, tested); the sums stay numpy's."""
+    p, s = segments.shape[:2]
+    n = fg.shape[0]
+    k = params.n_skeleton + 2
+    m = s * k
+    mf, fm = _scratch(work, "mf", (p, m)), _scratch(work, "fm", (p, n))
+    count = np.empty(p, dtype=np.int64)
+    fg_t = np.ascontiguousarray(np.asarray(fg, dtype=np.float32).T)
+    cue = cue_image
+    occ_on = bool(params.occlusion_aware and cue is not None)
+    cut_level = cue.min_height + 0.01 if cue is not None and cue.min_height > 0 else -np.inf  # CueImage.below_cut
+    intr = cue.intrinsics if cue is not None else None
+    unknown = cue.unknown if cue is not None else None
+    jit.cue3d_terms(  # type: ignore[attr-defined]
+        np.ascontiguousarray(segments, dtype=np.float64), np.ascontiguousarray(radii, dtype=np.float64),
+        np.linspace(0.0, 1.0, k), fg_t[0], fg_t[1], fg_t[2],
+        _NO_REF if ref_fg_costs is None else np.ascontiguousarray(ref_fg_costs, dtype=np.float32),
+        ref_fg_costs is not None, np.float32(params.truncate),
+        np.ones(s, dtype=bool) if active is None else np.ascontiguousarray(active, dtype=bool),
+        _NO_NORMAL if cue is None else np.asarray(cue.floor_normal, dtype=np.float64),
+        0.0 if cue is None else float(cue.floor_offset), float(cut_level), occ_on,
+        *((intr.fx, intr.fy, intr.cx, intr.cy, int(intr.width), int(intr.height)) if intr is not None
+          else (1.0, 1.0, 0.0, 0.0, 0, 0)),
+        _NO_DEPTH if cue is None else cue.depth.reshape(-1), _NO_UNKNOWN if unknown is None else unknown.reshape(-1),
+        unknown is not None, float(params.occlusion_tol), np.float32(params.occluded_cost), mf, fm, count,
+        _scratch(work, "pts32", (p, m, 3)), _scratch(work, "w32", (p, m)),
+        _scratch(work, "row_min", (p, m), np.int32), _scratch(work, "fm_scratch", (n,)),
+    )
+    d_mf = mf.sum(axis=1) / count
+    d_fm = fm.mean(axis=1)
+    d1 = 0.5 * (d_fm + d_mf)
+    return -params.lam * d1.astype(np.float64)
+
+
+_NO_REF = np.zeros(1, dtype=np.float32)
+_NO_NORMAL = np.array([0.0, 0.0, 1.0])
+_NO_DEPTH = np.zeros(1, dtype=np.float32)
+_NO_UNKNOWN = np.zeros(1, dtype=bool)
 
 
 # --------------------------------------------------------------------------------------

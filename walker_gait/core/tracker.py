@@ -466,6 +466,15 @@ def camera_segments(
     ``lm.FOOT_HALF_WIDTH * len_foot`` wide and as tall as the foot radius, seen from the camera:
     :func:`~walker_gait.core.likelihood.elliptic_section_radii`); otherwise both are ``kin.radii``.
     """
+    jit = kernels.compiled()
+    if jit is not None:  # one compiled pass (tested against the numpy code below)
+        p, s = kin.segments.shape[0], 3 * len(legs)
+        seg_c, toward, sil = np.empty((p, s, 2, 3)), np.empty((p, s, 2)), np.empty((p, s, 2))
+        jit.camera_segments(np.ascontiguousarray(kin.segments), np.ascontiguousarray(kin.radii),
+                            np.ascontiguousarray(kin.foot_lateral), np.asarray(legs, dtype=np.int64),
+                            np.ascontiguousarray(body.body_to_cam_rot), np.ascontiguousarray(body.body_to_cam_trans),
+                            bool(elliptic_foot), lm.FOOT_HALF_WIDTH / lm.FOOT_HEEL_RADIUS, seg_c, toward, sil)
+        return seg_c, toward, (sil if elliptic_foot else toward)
     seg = kin.segments[:, list(legs)]  # (P, nl, 3, 2, 3)
     p = seg.shape[0]
     seg_c = body.to_camera(seg).reshape(p, 3 * len(legs), 2, 3)
