@@ -141,6 +141,16 @@ def test_compiled_camera_segments_agree_with_numpy(monkeypatch: pytest.MonkeyPat
             assert (got["compiled"][1] is got["compiled"][2]) == (not elliptic)
 
 
+def test_points_that_are_not_finite_are_left_out(seq) -> None:  # noqa: ANN001
+    clean = _run(LegTracker(FAST, KINECT, rng=np.random.default_rng(3)), seq.frames[:4])
+    tr = LegTracker(FAST, KINECT, rng=np.random.default_rng(3))
+    for f, want in zip(seq.frames[:4], clean):
+        pts = np.insert(np.asarray(f.points, dtype=np.float64), [0, 5, 5], [[np.nan, 0.0, 1.0], [0.1, np.inf, 1.0],
+                                                                         [0.2, 0.3, -np.inf]], axis=0)
+        pose = tr.update(stamp=f.stamp, points=pts, depth_fg=f.depth, floor=f.floor)
+        np.testing.assert_array_equal(pose.points, want.points)
+
+
 def test_tracks_short_sequence_without_swaps(seq) -> None:  # noqa: ANN001
     tr = LegTracker(FAST, KINECT, rng=np.random.default_rng(0))
     poses = _run(tr, seq.frames)

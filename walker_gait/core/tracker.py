@@ -778,7 +778,9 @@ class LegTracker:
             no_depth = np.asarray(no_depth, dtype=bool)
             if no_depth.shape != depth.shape:
                 raise TrackerInputError(f"no_depth shape {no_depth.shape} does not match depth_fg {depth.shape}")
-        pts = pts[np.all(np.isfinite(pts), axis=1)]
+        finite = np.isfinite(pts)
+        if not finite.all():  # (one pass over the points when all are finite, as the segmentation's are)
+            pts = pts[finite.all(axis=1)]
         cfg = self.config
         if not cfg.no_depth_unknown:
             no_depth = None  # pixels without depth are background to both cues (paper)
