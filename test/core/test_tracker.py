@@ -141,6 +141,30 @@ def test_compiled_camera_segments_agree_with_numpy(monkeypatch: pytest.MonkeyPat
             assert (got["compiled"][1] is got["compiled"][2]) == (not elliptic)
 
 
+def test_compiled_priors_are_numpys_bit_for_bit() -> None:
+    rng = np.random.default_rng(8)
+    x = np.tile(lm.neutral_state(right_hip_xy=(-0.85, -0.09)), (200, 1))
+    x[:, lm.StateLayout.ANGLES] += rng.normal(0.0, 0.3, (200, 12))
+    x[:, lm.StateLayout.HIP_AZ] += rng.normal(0.0, 0.3, 200)
+    x[:, lm.StateLayout.ROOT_X : lm.StateLayout.ROOT_Y + 1] += rng.normal(0.0, 0.1, (200, 2))
+    x, kin, _ = lm.enforce_constraints(x)
+    configs = (DEFAULT, dataclasses.replace(DEFAULT, ankle_prior_sigma=0.2, footprint_sigma=0.03, pelvis_prior_sigma=(
+        np.inf, 0.05)), dataclasses.replace(DEFAULT, heel_rise_dorsiflexion=np.inf, foot_roll_prior_sigma=np.inf,
+                                           feet_crossing_sigma=np.inf, pelvis_prior_sigma=(np.inf, np.inf)), PAPER)
+    tried = 0
+    for cfg in configs:
+        tr = LegTracker(cfg, KINECT, rng=np.random.default_rng(0))
+        tr._footprints.predicted = lambda leg, stamp, max_s: (np.array([0.1 * leg - 0.8, 0.05]), 0.2)  # type: ignore[method-assign]
+        for hidden in (np.zeros((2, 3), bool), np.array([[False, True, True], [False, False, False]])):
+            tr._hidden.hidden = hidden
+            for legs in ((0, 1), (0,), (1,)):
+                want = tr._priors(x, kin, legs)
+                np.testing.assert_array_equal(tr._priors_compiled(_jit, x, kin, legs), want)
+                assert (np.ptp(want) > 0) == (cfg is not PAPER)
+                tried += 1
+    assert tried == 24
+
+
 def test_points_that_are_not_finite_are_left_out(seq) -> None:  # noqa: ANN001
     clean = _run(LegTracker(FAST, KINECT, rng=np.random.default_rng(3)), seq.frames[:4])
     tr = LegTracker(FAST, KINECT, rng=np.random.default_rng(3))

@@ -588,3 +588,113 @@ def cue3d_terms(seg, rad, t, fgx, fgy, fgz, ref, use_ref, truncate, active, norm
                 mf[p, m] = v if keep else np.float32(0.0)
                 cnt += 1 if keep else 0
         count[p] = cnt if cnt > 1 else 1
+
+
+@njit("void(float64[:, ::1], float64[:, ::1], float64[::1], float64[:, ::1])", cache=True, nogil=True,
+      error_model="numpy")
+def to_body(pts, rot, trans, out):  # pragma: no cover - compiled (tested against the numpy code)
+    """``out = (pts - trans) @ rot`` for ``(N, 3)`` points (:meth:`walker_gait.core.leg_model.BodyFrame.to_body`), the
+    sums in order (numpy's matrix product of a long ``(N, 3)`` array goes through BLAS, several times slower here,
+    and may fuse multiply-adds: the two agree to rounding)."""
+    for i in range(pts.shape[0]):
+        a = pts[i, 0] - trans[0]
+        b = pts[i, 1] - trans[1]
+        c = pts[i, 2] - trans[2]
+        for j in range(3):
+            out[i, j] = (a * rot[0, j] + b * rot[1, j]) + c * rot[2, j]
+
+
+# The tracker's pose priors (:meth:`walker_gait.core.tracker.LegTracker._evaluate`): numpy's arithmetic term by term, in
+# two passes around numpy's arctangents and arcsines (numpy's own, which may differ from the C library's in the last
+# bit): the same log priors, bit for bit (tested).
+
+_PRIOR_ARGS_SIG = "void(float64[:, :, :, ::1], int64[::1], float64[:, :, ::1])"
+
+
+@njit(_PRIOR_ARGS_SIG, cache=True, nogil=True, error_model="numpy")
+def prior_angle_args(points, legs, out):  # pragma: no cover - compiled (tested against the numpy code)
+    """The arguments of the foot pitch and shank lean arctangents of the feet of ``legs`` from ``points``
+    ``(P, 2, 5, 3)`` (``LEG_POINTS``, body frame): ``out`` ``(5, nl, P)`` rows [toe - heel height, its horizontal
+    length, the shank's lean along the foot, its height, the other ankle's distance ahead along the foot]."""
+    for li in range(legs.shape[0]):
+        leg = legs[li]
+        for p in range(points.shape[0]):
+            v0 = points[p, leg, 4, 0] - points[p, leg, 3, 0]
+            v1 = points[p, leg, 4, 1] - points[p, leg, 3, 1]
+            v2 = points[p, leg, 4, 2] - points[p, leg, 3, 2]
+            flat = np.hypot(v0, v1)
+            den = max(flat, 1e-9)
+            s0 = points[p, leg, 1, 0] - points[p, leg, 2, 0]
+            s1 = points[p, leg, 1, 1] - points[p, leg, 2, 1]
+            s2 = points[p, leg, 1, 2] - points[p, leg, 2, 2]
+            o0 = points[p, 1 - leg, 2, 0] - points[p, leg, 2, 0]
+            o1 = points[p, 1 - leg, 2, 1] - points[p, leg, 2, 1]
+            out[0, li, p] = v2
+            out[1, li, p] = flat
+            out[2, li, p] = (s0 * v0 + s1 * v1) / den
+            out[3, li, p] = s2
+            out[4, li, p] = (o0 * v0 + o1 * v1) / den
+
+
+_PRIOR_SIG = ("void(float64[:, ::1], float64[:, :, :, ::1], int64[::1], float64, float64[:, ::1], float64[:, ::1], "
+              "float64[:, :, ::1], boolean[::1], float64, float64, float64, float64, boolean[::1], float64[:, ::1], "
+              "float64[::1], float64[:, ::1], float64, float64, float64, boolean, float64, float64[::1])")
+
+
+@njit(_PRIOR_SIG, cache=True, nogil=True, error_model="numpy")
+def prior_terms(states, points, legs, ankle_sigma, pitch, lean, args, rise_on, dorsiflexion, behind_full, rise_max,
+                pitch_sigma, footprint_on, footprint_xy, footprint_scale, roll, roll_sigma, pelvis_x, pelvis_y,
+                pelvis_on, crossing_sigma, total):  # pragma: no cover - compiled (tested against the numpy code)
+    """``total`` ``(P,)`` minus the log priors of :meth:`walker_gait.core.tracker.LegTracker._evaluate`, in its order:
+    ankle flexion (``ankle_sigma``), foot pitch (``pitch`` / ``lean`` ``(nl, P)`` the arctangents of
+    :func:`prior_angle_args`'s ``args``; the heel-rise allowance where ``rise_on``; ``pitch_sigma``), the hidden feet's
+    footprints (``footprint_on`` ``(nl,)``, ``footprint_xy`` ``(nl, 2)``, ``footprint_scale`` ``(nl,)``), foot roll
+    (``roll`` ``(nl, P)`` arcsines), the pelvis over the feet (``pelvis_on``; ``pelvis_x`` / ``pelvis_y`` sigmas) and
+    feet crossing (``crossing_sigma``); a sigma of inf leaves its prior out."""
+    n_p = states.shape[0]
+    nl = legs.shape[0]
+    for p in range(n_p):
+        t = total[p]
+        if ankle_sigma < np.inf:
+            for li in range(nl):
+                a = states[p, 11 + 6 * legs[li] + 4] / ankle_sigma
+                t -= 0.5 * a * a
+        if pitch_sigma < np.inf:
+            for li in range(nl):
+                a = pitch[li, p]
+                if rise_on[li]:
+                    gate = min(max(args[4, li, p] / behind_full, 0.0), 1.0)
+                    a = a + gate * min(max(lean[li, p] - dorsiflexion, 0.0), rise_max)
+                a /= pitch_sigma
+                t -= 0.5 * a * a
+        for li in range(nl):
+            if footprint_on[li]:
+                leg = legs[li]
+                d0 = (points[p, leg, 4, 0] - footprint_xy[li, 0]) / footprint_scale[li]
+                d1 = (points[p, leg, 4, 1] - footprint_xy[li, 1]) / footprint_scale[li]
+                t -= 0.5 * (d0 * d0 + d1 * d1)
+        if roll_sigma < np.inf:
+            for li in range(nl):
+                r = roll[li, p] / roll_sigma
+                t -= 0.5 * r * r
+        if pelvis_on:
+            d0 = ((points[p, 0, 0, 0] + points[p, 1, 0, 0]) / 2.0
+                  - (((points[p, 0, 3, 0] + points[p, 0, 4, 0]) + points[p, 1, 3, 0]) + points[p, 1, 4, 0]) / 4.0)
+            d1 = ((points[p, 0, 0, 1] + points[p, 1, 0, 1]) / 2.0
+                  - (((points[p, 0, 3, 1] + points[p, 0, 4, 1]) + points[p, 1, 3, 1]) + points[p, 1, 4, 1]) / 4.0)
+            d0 /= pelvis_x
+            d1 /= pelvis_y
+            t -= 0.5 * (d0 * d0 + d1 * d1)
+        if crossing_sigma < np.inf:
+            a0 = points[p, 0, 0, 0] - points[p, 1, 0, 0]
+            a1 = points[p, 0, 0, 1] - points[p, 1, 0, 1]
+            n = max(np.sqrt(a0 * a0 + a1 * a1), 1e-9)
+            a0 /= n
+            a1 /= n
+            f0 = ((points[p, 0, 2, 0] + points[p, 0, 3, 0]) + points[p, 0, 4, 0]) / 3.0 - (
+                ((points[p, 1, 2, 0] + points[p, 1, 3, 0]) + points[p, 1, 4, 0]) / 3.0)
+            f1 = ((points[p, 0, 2, 1] + points[p, 0, 3, 1]) + points[p, 0, 4, 1]) / 3.0 - (
+                ((points[p, 1, 2, 1] + points[p, 1, 3, 1]) + points[p, 1, 4, 1]) / 3.0)
+            c = max(-(f0 * a0 + f1 * a1), 0.0) / crossing_sigma
+            t -= 0.5 * c * c
+        total[p] = t

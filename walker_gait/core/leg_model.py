@@ -228,7 +228,14 @@ class BodyFrame:
 
     def to_body(self, pts: FloatArray) -> FloatArray:
         """``(..., 3)`` camera-frame points to the body frame."""
-        return (np.asarray(pts, dtype=np.float64) - self.body_to_cam_trans) @ self.body_to_cam_rot
+        jit = kernels.compiled()
+        pts = np.asarray(pts, dtype=np.float64)
+        if jit is not None and pts.ndim == 2 and pts.shape[1] == 3:  # (a frame's foreground: tens of thousands)
+            out = np.empty(pts.shape)
+            jit.to_body(np.ascontiguousarray(pts), np.ascontiguousarray(self.body_to_cam_rot),  # type: ignore[attr-defined]
+                        np.ascontiguousarray(self.body_to_cam_trans, dtype=np.float64), out)
+            return out
+        return (pts - self.body_to_cam_trans) @ self.body_to_cam_rot
 
 
 # Internal layout: kinematics are computed component-major with the particle axis last, e.g.

@@ -956,6 +956,50 @@ class LegTracker:
         if kin is None:
             kin = lm.forward_kinematics(states)
         seg, rad, sil = self._cam_segments(frame, kin, legs)
+        jit = kernels.compiled()
+        if jit is not None:
+            total = self._priors_compiled(jit, states, kin, legs)
+        else:
+            total = self._priors(states, kin, legs)
+        if cfg.cue in ("3d", "combined"):
+            total += log_likelihood_3d(
+                seg,
+                rad,
+                fg=frame.fg,
+                params=self._p3,
+                ref_fg_costs=None if ref is None else ref.fg_costs,
+                active=self._active(legs),
+                cue_image=frame.cue,
+                work=self._work,
+            )
+        if cfg.cue == "2d" or (cfg.cue == "combined" and use_2d):
+            # Only pixels some particle renders differ between particles; every other pixel adds the
+            # same cost to all of them, which normalised (log) weights ignore, so the 2D cue is
+            # evaluated over the particles' own bbox (identical weights, less work than eq. 9's
+            # whole image; `log_likelihood_2d` keeps the whole-image normaliser).
+            bbox = project_bbox(seg, np.maximum(rad, sil), intrinsics=frame.cue.intrinsics)
+            ref_render = None
+            if ref is not None and ref.segments is not None:
+                ref_render = render_depth(
+                    ref.segments, ref.silhouette, cue=frame.cue, bbox=bbox, floor_clip=self._floor_clip[:3],
+                    depth_radii=ref.radii,
+                )[0]
+            total += log_likelihood_2d(
+                seg,
+                sil,
+                depth_radii=rad,
+                cue=frame.cue,
+                params=self._p2,
+                bbox=bbox,
+                ref_render=ref_render,
+                floor_clip=self._floor_clip[: seg.shape[1]],
+                work=self._work,
+            )
+        return total
+
+    def _priors(self, states: FloatArray, kin: Kinematics, legs: tuple[int, ...]) -> FloatArray:
+        """Log priors ``(P,)`` of ``states`` (kinematics ``kin``) for the segments of ``legs`` (numpy)."""
+        cfg = self.config
         total = np.zeros(states.shape[0])
         if math.isfinite(cfg.ankle_prior_sigma):
             # seen from the front, a flat foot and a plantar-flexed one standing on its toes explain the
@@ -1021,40 +1065,44 @@ class LegTracker:
             feet = kin.points[:, :, ANKLE : TOE + 1, :2].mean(axis=2)
             c = np.maximum(-np.einsum("pi,pi->p", feet[:, 0] - feet[:, 1], across), 0.0) / cfg.feet_crossing_sigma
             total -= 0.5 * c * c
-        if cfg.cue in ("3d", "combined"):
-            total += log_likelihood_3d(
-                seg,
-                rad,
-                fg=frame.fg,
-                params=self._p3,
-                ref_fg_costs=None if ref is None else ref.fg_costs,
-                active=self._active(legs),
-                cue_image=frame.cue,
-                work=self._work,
-            )
-        if cfg.cue == "2d" or (cfg.cue == "combined" and use_2d):
-            # Only pixels some particle renders differ between particles; every other pixel adds the
-            # same cost to all of them, which normalised (log) weights ignore, so the 2D cue is
-            # evaluated over the particles' own bbox (identical weights, less work than eq. 9's
-            # whole image; `log_likelihood_2d` keeps the whole-image normaliser).
-            bbox = project_bbox(seg, np.maximum(rad, sil), intrinsics=frame.cue.intrinsics)
-            ref_render = None
-            if ref is not None and ref.segments is not None:
-                ref_render = render_depth(
-                    ref.segments, ref.silhouette, cue=frame.cue, bbox=bbox, floor_clip=self._floor_clip[:3],
-                    depth_radii=ref.radii,
-                )[0]
-            total += log_likelihood_2d(
-                seg,
-                sil,
-                depth_radii=rad,
-                cue=frame.cue,
-                params=self._p2,
-                bbox=bbox,
-                ref_render=ref_render,
-                floor_clip=self._floor_clip[: seg.shape[1]],
-                work=self._work,
-            )
+        return total
+
+    def _priors_compiled(self, jit: object, states: FloatArray, kin: Kinematics, legs: tuple[int, ...]) -> FloatArray:
+        """:meth:`_priors` by the compiled kernels (:func:`walker_gait.core._jit.prior_terms`: the same arithmetic and
+        numpy's arctangents and arcsines, bit for bit, tested)."""
+        cfg = self.config
+        p, nl = states.shape[0], len(legs)
+        leg_idx = np.asarray(legs, dtype=np.int64)
+        points = np.ascontiguousarray(kin.points)
+        args = np.empty((5, nl, p))
+        pitch = lean = roll = np.empty((nl, p))
+        pitch_on = math.isfinite(cfg.foot_pitch_prior_sigma)
+        rise_on = np.array([pitch_on and math.isfinite(cfg.heel_rise_dorsiflexion) and not self._hidden.hidden[leg, 1]
+                            for leg in legs])
+        if pitch_on:
+            jit.prior_angle_args(points, leg_idx, args)  # type: ignore[attr-defined]
+            pitch = np.arctan2(args[0], args[1])
+            if rise_on.any():
+                lean = np.arctan2(args[2], args[3])
+        fp_on, fp_xy, fp_scale = np.zeros(nl, dtype=bool), np.zeros((nl, 2)), np.ones(nl)
+        if math.isfinite(cfg.footprint_sigma):
+            for li, leg in enumerate(legs):
+                if not self._hidden.hidden[leg, 2]:
+                    continue
+                pred = self._footprints.predicted(leg, self._stamp, max_s=cfg.footprint_max_s)
+                if pred is not None:
+                    fp_on[li], fp_xy[li] = True, pred[0][:2]
+                    fp_scale[li] = cfg.footprint_sigma + cfg.footprint_sigma_growth * pred[1]
+        if math.isfinite(cfg.foot_roll_prior_sigma):
+            roll = np.arcsin(np.clip(kin.foot_lateral[:, list(legs), 2].T, -1.0, 1.0))
+        sx, sy = (float(v) for v in cfg.pelvis_prior_sigma)
+        total = np.zeros(p)
+        jit.prior_terms(  # type: ignore[attr-defined]
+            np.ascontiguousarray(states, dtype=np.float64), points, leg_idx, float(cfg.ankle_prior_sigma),
+            np.ascontiguousarray(pitch), np.ascontiguousarray(lean), args, rise_on, float(cfg.heel_rise_dorsiflexion),
+            HEEL_RISE_BEHIND, HEEL_RISE_MAX, float(cfg.foot_pitch_prior_sigma), fp_on, fp_xy, fp_scale,
+            np.ascontiguousarray(roll), float(cfg.foot_roll_prior_sigma), sx, sy,
+            math.isfinite(sx) or math.isfinite(sy), float(cfg.feet_crossing_sigma), total)
         return total
 
     def _reference(self, frame: _Frame, state: FloatArray, leg: int) -> _Reference:
