@@ -154,7 +154,10 @@ def test_compiled_priors_are_numpys_bit_for_bit() -> None:
     tried = 0
     for cfg in configs:
         tr = LegTracker(cfg, KINECT, rng=np.random.default_rng(0))
-        tr._footprints.predicted = lambda leg, stamp, max_s: (np.array([0.1 * leg - 0.8, 0.05]), 0.2)  # type: ignore[method-assign]
+        def predicted(leg: int, stamp: float, max_s: float) -> tuple[np.ndarray, float]:  # a hidden foot's footprint
+            return np.array([0.1 * leg - 0.8, 0.05]), 0.2
+
+        tr._footprints.predicted = predicted  # type: ignore[method-assign]
         for hidden in (np.zeros((2, 3), bool), np.array([[False, True, True], [False, False, False]])):
             tr._hidden.hidden = hidden
             for legs in ((0, 1), (0,), (1,)):

@@ -292,8 +292,8 @@ def shoe_strip(near, toe, other_heel, other_toe, u0, u1, norm, ahead, behind, ha
 # term by term (the same products, sums and their order; the cosines and sines come from numpy): the same kinematics
 # and the same constraint decisions, bit for bit (tested).
 
-_CHAIN_SIG = ("void(float64[:, ::1], float64[:, ::1], float64[:, ::1], float64[::1], boolean, float64[:, :, :, :, ::1], "
-              "float64[:, :, :, ::1], float64[:, :, :, ::1], float64[:, :, ::1], boolean[::1])")
+_CHAIN_SIG = ("void(float64[:, ::1], float64[:, ::1], float64[:, ::1], float64[::1], boolean, "
+              "float64[:, :, :, :, ::1], float64[:, :, :, ::1], float64[:, :, :, ::1], float64[:, :, ::1], boolean[::1])")
 
 
 @njit(inline="always")
@@ -517,8 +517,9 @@ def camera_segments(seg, radii, lateral, legs, rot, trans, elliptic, half_width_
 
 
 _CUE3D_SIG = ("void(float64[:, :, :, ::1], float64[:, :, ::1], float64[::1], float32[::1], float32[::1], float32[::1], "
-              "float32[::1], boolean, float32, boolean[::1], float64[::1], float64, float64, boolean, float64, float64, "
-              "float64, float64, int64, int64, float32[::1], boolean[::1], boolean, float64, float32, float32[:, ::1], "
+              "float32[::1], boolean, float32, boolean[::1], float64[::1], float64, float64, boolean, float64, "
+              "float64, float64, float64, int64, int64, float32[::1], boolean[::1], boolean, float64, float32, "
+              "float32[:, ::1], "
               "float32[:, ::1], int64[::1], float32[:, :, ::1], float32[:, ::1], int32[:, ::1], float32[::1])")
 
 
@@ -588,20 +589,6 @@ def cue3d_terms(seg, rad, t, fgx, fgy, fgz, ref, use_ref, truncate, active, norm
                 mf[p, m] = v if keep else np.float32(0.0)
                 cnt += 1 if keep else 0
         count[p] = cnt if cnt > 1 else 1
-
-
-@njit("void(float64[:, ::1], float64[:, ::1], float64[::1], float64[:, ::1])", cache=True, nogil=True,
-      error_model="numpy")
-def to_body(pts, rot, trans, out):  # pragma: no cover - compiled (tested against the numpy code)
-    """``out = (pts - trans) @ rot`` for ``(N, 3)`` points (:meth:`walker_gait.core.leg_model.BodyFrame.to_body`), the
-    sums in order (numpy's matrix product of a long ``(N, 3)`` array goes through BLAS, several times slower here,
-    and may fuse multiply-adds: the two agree to rounding)."""
-    for i in range(pts.shape[0]):
-        a = pts[i, 0] - trans[0]
-        b = pts[i, 1] - trans[1]
-        c = pts[i, 2] - trans[2]
-        for j in range(3):
-            out[i, j] = (a * rot[0, j] + b * rot[1, j]) + c * rot[2, j]
 
 
 # The tracker's pose priors (:meth:`walker_gait.core.tracker.LegTracker._evaluate`): numpy's arithmetic term by term, in

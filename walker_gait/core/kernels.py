@@ -16,8 +16,9 @@ tracker's frame 2x, see DEVELOPERS.md).
   (in another order than numpy: the same log likelihoods to ~1e-12, tested).
 
 Around those loops the tracker spent as much time again in numpy calls on small arrays (a few hundred elements each,
-call overhead rather than arithmetic).  Three more kernels take the largest groups of them, each computing numpy's
-float64 arithmetic term by term (the same products and sums in the same order; cosines and sines still numpy's):
+call overhead rather than arithmetic).  Four more kernels take the largest groups of them, each computing numpy's
+float64 arithmetic term by term (the same products and sums in the same order; the trigonometric functions still
+numpy's):
 
 * :func:`leg_chain`: the leg model's forward kinematics, and for :func:`walker_gait.core.leg_model.enforce_constraints`
   its floor contact and collision test: the same kinematics and decisions bit for bit (tested).
@@ -26,9 +27,12 @@ float64 arithmetic term by term (the same products and sums in the same order; c
   rounding, tested).
 * :func:`cue3d_terms`: the 3D cue's skeleton points, its floor cut, occlusion test and truncation around
   :func:`surface_costs` (:func:`likelihood.log_likelihood_3d`; the sums stay numpy's).
+* :func:`prior_angle_args` / :func:`prior_terms`: the pose priors of the tracker's ``_evaluate``, in two passes
+  around numpy's ``arctan2`` and ``arcsin`` (on AVX-512 numpy's are SVML's, not the C library's that numba calls):
+  bit for bit (tested).
 
-Together the tracker's frame went from 25 to 17 ms on the default preset with the same tracks, frame for frame,
-on four synthetic sessions (sixty-seventh session, DEVELOPERS.md).
+Together the tracker's frame went from 25 to 14 ms on the default preset with the same tracks, steps and events,
+bit for bit, on the 96 sessions of three sweep sets (sixty-seventh session, DEVELOPERS.md).
 
 The feet's measures (:mod:`walker_gait.core.feet`) pick the points they take from the whole foreground with three
 more (:func:`toe_sides`, :func:`shoe_near`, :func:`shoe_strip`): one pass each instead of a dozen numpy masks, the

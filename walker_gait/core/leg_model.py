@@ -228,14 +228,7 @@ class BodyFrame:
 
     def to_body(self, pts: FloatArray) -> FloatArray:
         """``(..., 3)`` camera-frame points to the body frame."""
-        jit = kernels.compiled()
-        pts = np.asarray(pts, dtype=np.float64)
-        if jit is not None and pts.ndim == 2 and pts.shape[1] == 3:  # (a frame's foreground: tens of thousands)
-            out = np.empty(pts.shape)
-            jit.to_body(np.ascontiguousarray(pts), np.ascontiguousarray(self.body_to_cam_rot),  # type: ignore[attr-defined]
-                        np.ascontiguousarray(self.body_to_cam_trans, dtype=np.float64), out)
-            return out
-        return (pts - self.body_to_cam_trans) @ self.body_to_cam_rot
+        return (np.asarray(pts, dtype=np.float64) - self.body_to_cam_trans) @ self.body_to_cam_rot
 
 
 # Internal layout: kinematics are computed component-major with the particle axis last, e.g.
@@ -731,6 +724,7 @@ def enforce_constraints(
     x = clip_to_limits(np.atleast_2d(np.asarray(states, dtype=np.float64)))
     jit = kernels.compiled()
     if jit is not None:  # the same arithmetic, compiled (tested bit for bit)
+        x = np.ascontiguousarray(x)  # (a Fortran-ordered input keeps its order through the clip)
         kin, bad = _compiled_kinematics(jit, x, constrain=True)
         if fallback is not None and bad.any():
             x[bad] = np.atleast_2d(fallback)[bad]
