@@ -523,6 +523,16 @@ _CUE3D_SIG = ("void(float64[:, :, :, ::1], float64[:, :, ::1], float64[::1], flo
               "float32[:, ::1], int64[::1], float32[:, :, ::1], float32[:, ::1], int32[:, ::1], float32[::1])")
 
 
+@njit(inline="always")
+def _segment_axis(seg, rad, p, s):  # pragma: no cover - compiled
+    """Start point, start-to-end vector, start radius and radius change of segment ``s`` of particle ``p``: the skeleton
+    point at ``t`` along it is ``d t + a`` with width ``r0 + dr t`` (:func:`walker_gait.core.likelihood.
+    skeleton_points`'s arithmetic)."""
+    ax, ay, az = seg[p, s, 0, 0], seg[p, s, 0, 1], seg[p, s, 0, 2]
+    r0 = rad[p, s, 0]
+    return ax, ay, az, seg[p, s, 1, 0] - ax, seg[p, s, 1, 1] - ay, seg[p, s, 1, 2] - az, r0, rad[p, s, 1] - r0
+
+
 @njit(_CUE3D_SIG, cache=True, nogil=True, error_model="numpy")
 def cue3d_terms(seg, rad, t, fgx, fgy, fgz, ref, use_ref, truncate, active, normal, offset, cut_level, occ_on, fx,
                 fy, cx, cy, width, height, depth, unknown, has_unknown, tol, occ_cost, mf, fm, count, pts32, w32,
@@ -543,10 +553,7 @@ def cue3d_terms(seg, rad, t, fgx, fgy, fgz, ref, use_ref, truncate, active, norm
     k = t.shape[0]
     for p in range(n_p):
         for s in range(n_s):
-            ax, ay, az = seg[p, s, 0, 0], seg[p, s, 0, 1], seg[p, s, 0, 2]
-            dx, dy, dz = seg[p, s, 1, 0] - ax, seg[p, s, 1, 1] - ay, seg[p, s, 1, 2] - az
-            r0 = rad[p, s, 0]
-            dr = rad[p, s, 1] - r0
+            ax, ay, az, dx, dy, dz, r0, dr = _segment_axis(seg, rad, p, s)
             for j in range(k):
                 pts32[p, s * k + j, 0] = np.float32(dx * t[j] + ax)
                 pts32[p, s * k + j, 1] = np.float32(dy * t[j] + ay)
@@ -564,10 +571,7 @@ def cue3d_terms(seg, rad, t, fgx, fgy, fgz, ref, use_ref, truncate, active, norm
             f[i] = truncate if truncate < f[i] else f[i]
         cnt = 0
         for s in range(n_s):
-            ax, ay, az = seg[p, s, 0, 0], seg[p, s, 0, 1], seg[p, s, 0, 2]
-            dx, dy, dz = seg[p, s, 1, 0] - ax, seg[p, s, 1, 1] - ay, seg[p, s, 1, 2] - az
-            r0 = rad[p, s, 0]
-            dr = rad[p, s, 1] - r0
+            ax, ay, az, dx, dy, dz, r0, dr = _segment_axis(seg, rad, p, s)
             for j in range(k):
                 m = s * k + j
                 v = abs(row_min[p, m] - w32[p, m])
