@@ -85,6 +85,11 @@ def _scratch(work: Workspace | None, name: str, shape: tuple[int, ...], dtype: t
     return work.buffer(name, shape, dtype)
 
 
+BELOW_CUT_MARGIN = 0.01
+"""m: a skeleton point whose surface cannot reach this much above the segmentation's floor cut is left out of the
+3D cue's d_MF (:meth:`CueImage.below_cut`)."""
+
+
 # --------------------------------------------------------------------------------------
 # 3D cue
 # --------------------------------------------------------------------------------------
@@ -292,7 +297,7 @@ def _log_likelihood_3d_compiled(
     fg_t = np.ascontiguousarray(np.asarray(fg, dtype=np.float32).T)
     cue = cue_image
     occ_on = bool(params.occlusion_aware and cue is not None)
-    cut_level = cue.min_height + 0.01 if cue is not None and cue.min_height > 0 else -np.inf  # CueImage.below_cut
+    cut_level = cue.min_height + BELOW_CUT_MARGIN if cue is not None and cue.min_height > 0 else -np.inf
     intr = cue.intrinsics if cue is not None else None
     unknown = cue.unknown if cue is not None else None
     jit.cue3d_terms(  # type: ignore[attr-defined]
@@ -407,7 +412,7 @@ class CueImage:
             unknown=unk,
         )
 
-    def below_cut(self, pts: FloatArray, widths: FloatArray, *, margin: float = 0.01) -> BoolArray:
+    def below_cut(self, pts: FloatArray, widths: FloatArray, *, margin: float = BELOW_CUT_MARGIN) -> BoolArray:
         """True where a skeleton point's surface cannot reach above ``min_height + margin``."""
         h = pts @ self.floor_normal + self.floor_offset
         return h + widths < self.min_height + margin
