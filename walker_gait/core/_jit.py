@@ -1,6 +1,7 @@
-"""numba kernels of the likelihood; import through :func:`walker_gait.core.kernels.compiled` (needs numba).
+"""numba kernels of the tracker (likelihood, leg model, priors, feet measures); import through
+:func:`walker_gait.core.kernels.compiled` (needs numba), whose docstring lists them.
 
-All three kernels are compiled with numpy's error model (a division by zero gives inf / NaN as in numpy, and
+All kernels are compiled with numpy's error model (a division by zero gives inf / NaN as in numpy, and
 leaves the loops free of Python's exception checks, which would stop their vectorisation), without fast-math
 (no reassociation, no fused multiply-add: results do not depend on the CPU's vector width), and release the
 GIL.  Every inner loop runs over a contiguous slice indexed from 0, which lets LLVM vectorise it.

@@ -997,6 +997,23 @@ class LegTracker:
             )
         return total
 
+    def _heel_rise_on(self, leg: int) -> bool:
+        """Whether the foot pitch prior of ``leg`` allows a heel rise (``heel_rise_dorsiflexion``): not for a HIDDEN
+        calf, whose lean is not measured."""
+        return math.isfinite(self.config.heel_rise_dorsiflexion) and not self._hidden.hidden[leg, 1]
+
+    def _footprint_target(self, leg: int) -> tuple[FloatArray, float] | None:
+        """The footprint prior's centre (floor xy) and scale (m) for the toe of a HIDDEN foot ``leg`` that stood on the
+        floor when last seen (``footprint_sigma``, widening with its age), or None."""
+        cfg = self.config
+        if not self._hidden.hidden[leg, 2]:
+            return None
+        pred = self._footprints.predicted(leg, self._stamp, max_s=cfg.footprint_max_s)
+        if pred is None:
+            return None
+        xy, age = pred
+        return xy, cfg.footprint_sigma + cfg.footprint_sigma_growth * age
+
     def _priors(self, states: FloatArray, kin: Kinematics, legs: tuple[int, ...]) -> FloatArray:
         """Log priors ``(P,)`` of ``states`` (kinematics ``kin``) for the segments of ``legs`` (numpy)."""
         cfg = self.config
@@ -1012,7 +1029,7 @@ class LegTracker:
                 v = kin.points[:, leg, TOE] - kin.points[:, leg, HEEL]  # heel -> toe, body frame (z up)
                 flat = np.hypot(v[:, 0], v[:, 1])
                 a = np.arctan2(v[:, 2], flat)  # toe-up pitch
-                if math.isfinite(cfg.heel_rise_dorsiflexion) and not self._hidden.hidden[leg, 1]:
+                if self._heel_rise_on(leg):
                     # late stance: the shank leans forward over the planted foot until the ankle reaches its
                     # dorsiflexion in gait (~10 deg, Perry & Burnfield 2010), then the heel rises; held flat, the
                     # heel-up foot slid forward along its hidden sole (the trailing toe ran 2-3 cm ahead).  Only a
@@ -1035,13 +1052,10 @@ class LegTracker:
             # `footprint_max_s` after it was last seen; the prior widens with time.  The floor moves through the
             # walker frame at the walker's speed, and the footprint with it (see _Footprints)
             for leg in legs:
-                if not self._hidden.hidden[leg, 2]:
+                target = self._footprint_target(leg)
+                if target is None:
                     continue
-                pred = self._footprints.predicted(leg, self._stamp, max_s=cfg.footprint_max_s)
-                if pred is None:
-                    continue
-                xy, age = pred
-                d = (kin.points[:, leg, TOE, :2] - xy) / (cfg.footprint_sigma + cfg.footprint_sigma_growth * age)
+                d = (kin.points[:, leg, TOE, :2] - target[0]) / target[1]
                 total -= 0.5 * np.einsum("pi,pi->p", d, d)
         if math.isfinite(cfg.foot_roll_prior_sigma):
             # a sole rolled sideways stands on its edge with its heel-toe line off the floor; shoes stay
@@ -1077,8 +1091,7 @@ class LegTracker:
         args = np.empty((5, nl, p))
         pitch = lean = roll = np.empty((nl, p))
         pitch_on = math.isfinite(cfg.foot_pitch_prior_sigma)
-        rise_on = np.array([pitch_on and math.isfinite(cfg.heel_rise_dorsiflexion) and not self._hidden.hidden[leg, 1]
-                            for leg in legs])
+        rise_on = np.array([pitch_on and self._heel_rise_on(leg) for leg in legs])
         if pitch_on:
             jit.prior_angle_args(points, leg_idx, args)  # type: ignore[attr-defined]
             pitch = np.arctan2(args[0], args[1])
@@ -1087,12 +1100,9 @@ class LegTracker:
         fp_on, fp_xy, fp_scale = np.zeros(nl, dtype=bool), np.zeros((nl, 2)), np.ones(nl)
         if math.isfinite(cfg.footprint_sigma):
             for li, leg in enumerate(legs):
-                if not self._hidden.hidden[leg, 2]:
-                    continue
-                pred = self._footprints.predicted(leg, self._stamp, max_s=cfg.footprint_max_s)
-                if pred is not None:
-                    fp_on[li], fp_xy[li] = True, pred[0][:2]
-                    fp_scale[li] = cfg.footprint_sigma + cfg.footprint_sigma_growth * pred[1]
+                target = self._footprint_target(leg)
+                if target is not None:
+                    fp_on[li], fp_xy[li], fp_scale[li] = True, target[0][:2], target[1]
         if math.isfinite(cfg.foot_roll_prior_sigma):
             roll = np.arcsin(np.clip(kin.foot_lateral[:, list(legs), 2].T, -1.0, 1.0))
         sx, sy = (float(v) for v in cfg.pelvis_prior_sigma)
