@@ -45,6 +45,28 @@ def test_prefetch_worker_gives_identical_results(short_session: Path, tmp_path: 
         [(s.stamp, s.side, s.step_length, s.step_width) for s in inline.steps]
 
 
+def test_worker_backward_pass_is_scored_here_as_inline(short_session: Path) -> None:
+    """The worker tracks backwards and sends its states; this process scores them on the frames read back from the
+    worker's store: the same poses and scores as the backward pass run and scored in one process."""
+    from walker_gait.io.bags import open_recording
+    from walker_gait.pipeline import FrameProcessor, _Front
+
+    proc = FrameProcessor(_options(3))
+    frames = []
+    with _Front(open_recording(short_session), proc, prefetch=3, two_way=True) as front:
+        assert front.forked
+        for _, prepared in front.frames():
+            assert proc.track(prepared) is None  # the forward pass; its results come at the end
+            frames.append(prepared)
+        worker = front.backward()
+    inline = FrameProcessor(_options(0)).backward(frames)
+    assert worker is not None and len(worker.poses) == len(frames) == 75
+    assert np.isfinite(worker.scores).sum() >= 60  # scored, not left NaN or -inf
+    np.testing.assert_array_equal(worker.scores, inline.scores)
+    np.testing.assert_array_equal([p.points for p in worker.poses], [p.points for p in inline.poses])
+    assert (worker.scoring_ms > 0).all()
+
+
 def test_prepared_frame_pickles_with_sparse_depth() -> None:
     import pickle
 

@@ -307,7 +307,7 @@ def build_parser() -> argparse.ArgumentParser:
             p.set_defaults(func=cmd_batch)
         p.add_argument("--out", required=True, help="output folder")
         p.add_argument("--param", action="append", metavar="KEY=VALUE", help="override a parameter (repeatable), "
-                       "e.g. leg_tracker.num_particles=300")
+                       "e.g. leg_tracker.n_particles=300")
         p.add_argument("--params-file", help="ROS 2 parameters YAML (default: config/walker_gait.yaml)")
         p.add_argument("--preset", default=None, help="tracker preset: default or paper")
         p.add_argument("--seed", type=int, default=0)

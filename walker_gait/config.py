@@ -211,7 +211,7 @@ def _flatten_mapping(d: Mapping[str, Any], prefix: str = "") -> dict[str, Any]:
 
 
 def parse_overrides(items: list[str]) -> dict[str, Any]:
-    """``["tracker.num_particles=300", ...]`` → ``{"tracker.num_particles": 300}`` (YAML-typed values)."""
+    """``["leg_tracker.n_particles=300", ...]`` → ``{"leg_tracker.n_particles": 300}`` (YAML-typed values)."""
     out: dict[str, Any] = {}
     for item in items:
         if "=" not in item:

@@ -14,6 +14,7 @@ import gc
 import json
 import math
 import sys
+import threading
 import time
 import warnings
 from collections import Counter
@@ -493,9 +494,10 @@ class FrameProcessor:
                                       rng=stage_rng(self.options.seed, "pass_scoring"), mounting=self.options.mounting)
         return float(score_passes(self._scorer, frame, [state], rng=frame_rng(self.options.seed, index))[0])
 
-    def backward(self, frames: Any, *, progress: Any = None) -> PassTrack:
+    def backward(self, frames: Any, *, progress: Any = None, score: Any = None) -> PassTrack:
         """The backward tracking pass over ``frames`` (a :class:`FrameStore` or sequence of prepared frames: every
-        frame the forward pass tracked, in recording order), each estimate scored on its frame."""
+        frame the forward pass tracked, in recording order), each estimate scored on its frame (by ``score(i, frame,
+        state)`` if given, as :func:`~walker_gait.core.smoothing.track_pass` takes it; else here)."""
         from walker_gait.config import stage_rng
         from walker_gait.core.smoothing import track_pass
         from walker_gait.core.tracker import LegTracker
@@ -505,7 +507,8 @@ class FrameProcessor:
                               rng=stage_rng(self.options.seed, "leg_tracker_backward"), mounting=self.options.mounting,
                               time_reversed=True)
 
-        return track_pass(make, frames, backward=True, score=lambda i, f, x: self._score(f, x, i), progress=progress)
+        return track_pass(make, frames, backward=True, score=score or (lambda i, f, x: self._score(f, x, i)),
+                          progress=progress)
 
     def process(self, *, stamp: float, data: Any, encoding: str, width: int, height: int, step: int,
                 is_bigendian: bool) -> FrameResult | None:
@@ -793,6 +796,7 @@ class _Front:
         self._dir: str | None = None
         self._reader: FrameStore | None = None
         self._store_path: Path | None = None
+        self._stored: list[tuple[int, int]] = []  # where the worker stored each frame the caller tracked, in order
 
     def __enter__(self) -> _Front:
         if self.forked:
@@ -855,21 +859,39 @@ class _Front:
             frame, prepared = payload
             if isinstance(prepared, tuple):  # ("stored", offset, length) in the worker's FrameStore file
                 assert self._reader is not None
+                self._stored.append((prepared[1], prepared[2]))
                 prepared = self._reader.at(prepared[1], prepared[2])
             yield frame, prepared
 
     def backward(self, progress: Any = None) -> PassTrack | None:
-        """The worker's backward pass (None inline); ``progress``: a tqdm-like bar it advances, or None."""
+        """The worker's backward pass (None inline); ``progress``: a tqdm-like bar it advances, or None.
+
+        The worker sends the backward tracker's state after each frame and this process, idle once its forward pass
+        is done, scores it (:meth:`FrameProcessor._score`, on the frame read back from the worker's store): the
+        worker's pass, the end of the run's critical path, is spared the scoring."""
         if not (self.forked and self.two_way):
             return None
+        assert self._reader is not None
+        n = len(self._stored)
+        scores = np.full(n, np.nan)
+        scoring_ms = np.zeros(n)
         while True:
             kind, payload = self._get()
             if kind == "bprog":
                 if progress is not None:
                     progress.update(payload)
                 continue
+            if kind == "bstate":
+                i, state = payload
+                t0 = time.perf_counter()
+                scores[i] = self.proc._score(self._reader.at(*self._stored[i]), state, i)
+                scoring_ms[i] = (time.perf_counter() - t0) * 1e3
+                continue
             if kind == "backward":
-                return payload
+                if len(payload.poses) != n or np.isnan(scores).any():
+                    raise RuntimeError(f"the frame-preparing worker's backward pass covers {len(payload.poses)} "
+                                       f"frames, {int(np.isnan(scores).sum())} of them unscored, of {n}")
+                return dataclasses.replace(payload, scores=scores, scoring_ms=scoring_ms)
             raise RuntimeError(f"unexpected message {kind!r} from the frame-preparing worker")
 
 
@@ -919,12 +941,26 @@ def _front_worker(q: Any, recording: Any, proc: FrameProcessor, store_path: Path
                     q.put(("bprog", 15, []))
             q.put(("bprog", done % 15, []))
 
-        result: tuple[str, Any] = ("backward", proc.backward(store, progress=counted))
+        def send(i: int, frame: Any, state: Any) -> float:  # scored by the parent (_Front.backward)
+            q.put(("bstate", (i, state), []))
+            return math.nan
+
+        result: tuple[str, Any] = ("backward", proc.backward(store, progress=counted, score=send))
     except Exception as exc:  # noqa: BLE001 - raised in the parent
         result = ("error", exc)
     finally:
         store.close()
     q.put((*result, []))
+
+
+def _load_kernels_beside() -> threading.Thread:
+    """Load the tracker's compiled kernels (:func:`walker_gait.core.kernels.compiled`: numba's import and its cached
+    kernels, ~0.4 s; their compilation once after an install) in a thread started now; join it before forking."""
+    from walker_gait.core import kernels
+
+    thread = threading.Thread(target=kernels.compiled, name="walker-gait-kernels", daemon=True)
+    thread.start()
+    return thread
 
 
 def _in_background(fn: Any, *args: Any, **kwargs: Any) -> Any:
@@ -984,11 +1020,18 @@ def process_recording(path: Path, out_dir: Path, *, options: PipelineOptions | N
             tracked.append((stamp_ns, frame_id, res))
 
     two_way = options.passes == "both"
-    if two_way:  # offline, the recording at hand: the walker's own structure learned from it first
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")  # the tracking pass reads the same frames and reports their problems
-            proc.learn_structure(recording.iter_frames(), progress=lambda it: _progress(
-                it, total=recording.frame_count, enabled=progress, desc=f"{path.name} (walker structure)"))
+    # the tracker's compiled kernels loaded (or compiled, once after an install) before the frame worker is forked, so
+    # that its backward pass, the end of the critical path, inherits them; beside learn_structure in a thread
+    kernels_loaded = _load_kernels_beside() if two_way and options.prefetch > 0 and _can_fork() else None
+    try:
+        if two_way:  # offline, the recording at hand: the walker's own structure learned from it first
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")  # the tracking pass reads the same frames and reports their problems
+                proc.learn_structure(recording.iter_frames(), progress=lambda it: _progress(
+                    it, total=recording.frame_count, enabled=progress, desc=f"{path.name} (walker structure)"))
+    finally:
+        if kernels_loaded is not None:
+            kernels_loaded.join()  # no thread may be running when the worker is forked
     with _Front(recording, proc, prefetch=options.prefetch, two_way=two_way) as front:
         for frame, prepared in _progress(front.frames(), total=recording.frame_count, enabled=progress,
                                          desc=f"{path.name} (forward)" if two_way else path.name):
@@ -1010,6 +1053,8 @@ def process_recording(path: Path, out_dir: Path, *, options: PipelineOptions | N
                 take(frame.stamp_ns, frame.frame_id, res)
         backward = None
         if front.forked and two_way:
+            if options.write_report:  # imported (matplotlib, ~0.4 s) while the worker still tracks backwards
+                import walker_gait.report  # noqa: F401
             bar = _progress_bar(total=len(kept), enabled=progress, desc=f"{path.name} (backward)")
             try:
                 backward = front.backward(bar)
