@@ -81,3 +81,18 @@ def test_camera_params_reach_every_stage_and_must_match(repo_root: Path) -> None
     params["floor_segmentation"]["depth_format"] = "kinect_raw"  # disagrees with depth_to_cloud's `auto`
     with pytest.raises(ParameterError, match="floor_segmentation.depth_format must match"):
         PipelineOptions.from_params(params, {})
+
+
+def test_tracker_presets_reach_the_offline_options(repo_root: Path) -> None:
+    from walker_gait.pipeline import PipelineOptions
+
+    params = load_params_file(repo_root / "config" / "walker_gait.yaml")
+    assert PipelineOptions.from_params(params, {}).tracker.n_particles == 192
+    accurate = PipelineOptions.from_params(params, {}, preset="accurate")  # `process --preset accurate`
+    assert (accurate.preset, accurate.tracker.n_particles) == ("accurate", 288)
+    # as a node parameter, and a field given beside it overrides the preset's (the --param example of the CLI's help)
+    mixed = PipelineOptions.from_params(params, parse_overrides(["leg_tracker.preset=accurate",
+                                                                 "leg_tracker.n_particles=300"]))
+    assert (mixed.preset, mixed.tracker.n_particles) == ("accurate", 300)
+    with pytest.raises(ParameterError, match="unknown preset 'fast'"):
+        PipelineOptions.from_params(params, {}, preset="fast")

@@ -46,6 +46,8 @@ def test_presets() -> None:
     assert PAPER.n_skeleton == 10 and not PAPER.partitioned and PAPER.n_layers == 1
     assert PAPER.lambda_3d == pytest.approx(200.0) and PAPER.lambda_2d == pytest.approx(1000 / 3)
     assert DEFAULT.partitioned and DEFAULT.n_layers >= 2 and DEFAULT.coast_frames > 0
+    # the offline preset is the default with more particles, nothing else
+    assert preset("accurate").n_particles == 288 and preset("accurate", n_particles=192) == DEFAULT
     with pytest.raises(ValueError):
         TrackerConfig(cue="rgb")  # type: ignore[arg-type]
     with pytest.raises(ValueError):

@@ -446,11 +446,19 @@ DEFAULT = TrackerConfig(
 runs from 19.1 to 15.9 cm and exchanged legs in 6 steps instead of 14, for ~3 ms a frame, DEVELOPERS.md); coarse
 layers weighted by the 3D cue, final layers by the combined cue with a 64x48 2D cue."""
 
-PRESETS: dict[str, TrackerConfig] = {"paper": PAPER, "default": DEFAULT}
+ACCURATE = replace(DEFAULT, n_particles=288)
+"""Offline preset: the default's sampling with 288 particles instead of 192, for ``walker-gait process`` where no
+camera sets the pace.  About 1.5 times the tracker's time (22-24 ms a frame in the sweeps on the 2-core machine
+against 15-17; live it would leave no margin under a 30 Hz camera's 33 ms).  On eight sweep runs (sets A and C,
+tracker seeds 0-3, sixty-eighth session, DEVELOPERS.md) the step length MAE was smaller in all eight (1.23 -> 1.11 cm
+on average), the step width's in seven (1.30 -> 1.21), the heels' in six (2.78 -> 2.66 cm); the cadence error about
+the same (1.10 -> 1.08 %, worse in six)."""
+
+PRESETS: dict[str, TrackerConfig] = {"paper": PAPER, "default": DEFAULT, "accurate": ACCURATE}
 
 
 def preset(name: str, **overrides: object) -> TrackerConfig:
-    """A named preset (``paper`` / ``default``) with optional field overrides."""
+    """A named preset (``paper`` / ``default`` / ``accurate``) with optional field overrides."""
     if name not in PRESETS:
         raise ValueError(f"unknown tracker preset {name!r}; choose one of {sorted(PRESETS)}")
     return replace(PRESETS[name], **overrides)  # type: ignore[arg-type]
