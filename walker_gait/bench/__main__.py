@@ -90,25 +90,30 @@ def section_endtoend(scenarios: tuple[str, ...], duration: float, seed: int) -> 
         session = generate_session(SessionSpec.preset(name, duration=dur), rng=np.random.default_rng(seed + k))
         rendered = render(session)
         log(f"[bench] {name}: {len(rendered.frames)} frames rendered in {rendered.seconds:.0f} s")
-        runs = [(c, "both", 0.0) for c in CUES] + [("combined", "forward", 0.0),
-                                                   ("combined", "both", true_leg_length(session))]
-        for cue, passes, leg in runs:
+        runs = [(c, "both", 0.0, "default") for c in CUES] + [("combined", "forward", 0.0, "default"),
+                                                              ("combined", "both", true_leg_length(session), "default"),
+                                                              ("combined", "both", 0.0, "accurate")]
+        for cue, passes, leg, preset in runs:
             t0 = time.perf_counter()
-            sc = evaluate(session, preset="default", cue=cue, seed=seed, rendered=rendered, passes=passes,
+            sc = evaluate(session, preset=preset, cue=cue, seed=seed, rendered=rendered, passes=passes,
                           leg_length_m=leg)
             if passes == "forward":
                 sc = dataclasses.replace(sc, cue=f"{cue}, one pass")
             if leg:
                 sc = dataclasses.replace(sc, cue=f"{cue}, leg length given")
-            log(f"[bench]   default/{sc.cue}: {time.perf_counter() - t0:.0f} s, tracker {f(sc.ms_per_frame['tracker'])} "
+            if preset != "default":
+                sc = dataclasses.replace(sc, cue=f"{cue}, preset {preset}")
+            log(f"[bench]   {preset}/{sc.cue}: {time.perf_counter() - t0:.0f} s, "
+                f"tracker {f(sc.ms_per_frame['tracker'])} "
                 f"ms/frame, step length err {pm(sc.step_length_err_cm)} cm")
             scores.append(sc)
-    lines = ["## End-to-end accuracy per scenario (preset `default`), cues side by side", "",
+    lines = ["## End-to-end accuracy per scenario (preset `default`; `accurate` in its own row), cues side by side", "",
              "`walker-gait process` as it runs by default: the recording tracked forwards and backwards in time and "
              "the two passes merged frame by frame (`--passes both`); the `combined, one pass` row is the forward "
              "pass alone (`--passes forward`), what the live graph computes; the `combined, leg length given` row is "
              "`--passes both` told the user's leg length (`--leg-length-m`, the synthetic user's true one: thigh + "
-             "shank + ankle height), which sets the reported thighs and calves (the hips' height) and nothing else. "
+             "shank + ankle height), which sets the reported thighs and calves (the hips' height) and nothing "
+             "else; the `combined, preset accurate` row is `--preset accurate` (288 particles instead of 192, for offline use). "
              "`tracker ms/frame` is the forward pass "
              "(the live tracker's work per frame); `pipeline frames/s` counts every offline stage, the backward pass "
              "and the scoring of both passes included.",
@@ -242,6 +247,13 @@ def section_process_and_live(seed: int, live: bool) -> list[str]:
         lines += [f"* `process`: {res.frames} frames in **{wall:.1f} s wall** (target ≤ 10 s), I/O and report "
                   f"included; mean stage times ms/frame: "
                   + ", ".join(f"{k} {v:.1f}" for k, v in res.timings_ms.items())]
+        log("[bench] process --preset accurate")
+        t0 = time.perf_counter()
+        acc = process_recording(bag, Path(tmp) / "out_accurate", options=PipelineOptions(seed=seed, preset="accurate"),
+                                progress=False)
+        lines += [f"* `process --preset accurate` (offline: 288 particles): {acc.frames} frames in "
+                  f"{time.perf_counter() - t0:.1f} s wall; tracker {acc.timings_ms['tracker']:.1f} ms/frame forwards, "
+                  f"{acc.timings_ms['tracker_backward']:.1f} backwards"]
         if live:
             from walker_gait.bench.live import run_live
 
