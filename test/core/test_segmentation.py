@@ -432,6 +432,53 @@ def test_segmenter_drops_walker_bar_in_roi() -> None:
     assert off["bar_kept"] > 0.5
 
 
+@pytest.mark.parametrize("config", [
+    SegmenterConfig(),
+    SegmenterConfig(roi=RoiConfig(forward=0.95, max_height=0.45, min_height_per_m2=0.0, center_max_shift=0.0),
+                    static_mask=StaticMaskConfig(enabled=False)),
+    SegmenterConfig(roi=RoiConfig(min_height=0.05, min_height_per_m2=0.01, left=0.2, right=0.15)),
+], ids=["default", "plain_threshold_no_reach", "per_m2"])
+@pytest.mark.parametrize("intrinsics", [KINECT_INTRINSICS, QVGA], ids=["vga", "qvga"])
+def test_compiled_pixel_pass_is_numpys_bit_for_bit(config: SegmenterConfig, intrinsics: CameraIntrinsics) -> None:
+    """The floor-plane branch's pixel pass (walker coordinates, height threshold, box and reach band) compiled
+    (``_jit.walker_box``) gives every frame's mask, points and counters of the numpy code, the auto-centred box's
+    shift (fed back from the reach band) included."""
+    from walker_gait.core import _jit, kernels
+
+    proj = DepthProjector(intrinsics)
+    frames = []
+    noise_rng = np.random.default_rng(11)
+    for i in range(8):
+        depth = noisy_depth(scene_cached(gait_legs(3 * i), intrinsics), noise_rng)
+        if i == 5:
+            depth[: depth.shape[0] // 3] = np.nan  # a frame with a third of its depth gone
+        frames.append(depth)
+    got = {}
+    for name, jit in (("numpy", None), ("compiled", _jit)):
+        seg = Segmenter(config, rng=np.random.default_rng(2), intrinsics=intrinsics)
+        with pytest.MonkeyPatch.context() as mp:
+            mp.setattr(kernels, "compiled", lambda jit=jit: jit)
+            got[name] = [seg.process(d, proj.points(d)) for d in frames]
+    for a, b in zip(got["numpy"], got["compiled"]):
+        assert a.status == b.status == "ok"
+        np.testing.assert_array_equal(a.mask, b.mask)
+        np.testing.assert_array_equal(a.points, b.points)
+        assert (a.n_valid, a.n_floor, a.n_outside_roi, a.n_static, a.n_thin, a.n_foreground, a.roi_shift) == \
+            (b.n_valid, b.n_floor, b.n_outside_roi, b.n_static, b.n_thin, b.n_foreground, b.roi_shift)
+    assert min(r.n_foreground for r in got["numpy"]) > 500  # legs kept: the box was not empty
+    assert any(r.n_outside_roi > 0 for r in got["numpy"])  # and it cut something
+    # the walker coordinates themselves, every pixel (NaN where the depth is)
+    seg = Segmenter(config, rng=np.random.default_rng(2), intrinsics=intrinsics)
+    for depth in frames[:3]:
+        pts = proj.points(depth)
+        floor = seg.process(depth, pts).floor
+        valid = (depth >= config.min_range) & (depth <= config.max_range)
+        box = seg._walker_box(depth, valid, floor)
+        assert box is not None
+        for compiled, numpy_ in zip(box[:3], seg._walker_coords(pts.reshape(-1, 3), depth, floor)):
+            np.testing.assert_array_equal(compiled, numpy_)
+
+
 def test_roi_sides_and_limits() -> None:
     """Camera's left = walker +y = image left: a leg 20 cm to the left is kept, 20 cm to the right is not."""
     rng = np.random.default_rng(7)

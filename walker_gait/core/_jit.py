@@ -690,3 +690,58 @@ def prior_terms(states, points, legs, ankle_sigma, pitch, lean, args, rise_on, d
             c = max(-(f0 * a0 + f1 * a1), 0.0) / crossing_sigma
             t -= 0.5 * c * c
         total[p] = t
+
+
+_WALKER_BOX_SIG = ("int64(float32[:, ::1], boolean[::1], float32[::1], float32[::1], float32[:, ::1], float32, "
+                   "float32, float32, float32, float32, float32, float32, float32, float32, float32, "
+                   "float32[::1], float32[::1], float32[::1], boolean[::1], boolean[::1])")
+
+
+@njit(_WALKER_BOX_SIG, cache=True, nogil=True, error_model="numpy")
+def walker_box(z, valid, rx, ry, rot, off, forward, near, max_height, reach_left, reach_right, box_left, box_right,
+               k_m2, min_height, xw, yw, h, mask, reach):  # pragma: no cover - compiled (tested against numpy's)
+    """The segmentation's pixel pass (:meth:`walker_gait.core.segmentation.Segmenter._process`, its floor-plane
+    branch), float32 as numpy computes it: each pixel's flat walker x, y and height (``xw``, ``yw``, ``h``: ``z``
+    times the row's and column's ray coefficients of ``rot``'s rows, ``off`` added to the height), then ``mask``:
+    valid, above the floor's threshold (``k_m2`` z² + ``min_height``) and inside the box (``near <= x <= forward``,
+    ``box_right <= y <= box_left``, ``h <= max_height``), and ``reach``: the same in the band ``reach_right <= y <=
+    reach_left``.  Branch-free, so that it vectorises: the caller passes ``k_m2`` 0 for a plain height threshold and
+    ``max_height`` inf for none, which decide every valid pixel (finite depth) as the numpy code's branches do.
+    Returns how many valid pixels lie above the floor's threshold."""
+    rows, cols = z.shape
+    n_not_floor = 0
+    b0 = np.empty(cols, dtype=np.float32)
+    b1 = np.empty(cols, dtype=np.float32)
+    b2 = np.empty(cols, dtype=np.float32)
+    for u in range(cols):  # numpy: np.add.outer(rot[k, 1] * ry + rot[k, 2], rot[k, 0] * rx)
+        b0[u] = rot[0, 0] * rx[u]
+        b1[u] = rot[1, 0] * rx[u]
+        b2[u] = rot[2, 0] * rx[u]
+    for v in range(rows):
+        a0 = rot[0, 1] * ry[v] + rot[0, 2]
+        a1 = rot[1, 1] * ry[v] + rot[1, 2]
+        a2 = rot[2, 1] * ry[v] + rot[2, 2]
+        zr = z[v]
+        base = v * cols
+        xr = xw[base:base + cols]
+        yr = yw[base:base + cols]
+        hr = h[base:base + cols]
+        vr = valid[base:base + cols]
+        mr = mask[base:base + cols]
+        rr = reach[base:base + cols]
+        count = 0
+        for u in range(cols):
+            zz = zr[u]
+            x = (a0 + b0[u]) * zz
+            y = (a1 + b1[u]) * zz
+            hh = (a2 + b2[u]) * zz + off
+            xr[u] = x
+            yr[u] = y
+            hr[u] = hh
+            above = (hh > (zz * zz * k_m2 + min_height)) & vr[u]
+            count += above
+            box = above & (x <= forward) & (x >= near) & (hh <= max_height)
+            rr[u] = box & (y <= reach_left) & (y >= reach_right)
+            mr[u] = box & (y <= box_left) & (y >= box_right)
+        n_not_floor += count
+    return n_not_floor

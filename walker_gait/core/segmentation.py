@@ -30,6 +30,7 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
+from walker_gait.core import kernels
 from walker_gait.core.presence import legs_above, legs_in_view
 from walker_gait.core.types import CameraIntrinsics, FloorPlane
 
@@ -1421,6 +1422,40 @@ class Segmenter:
         h += off
         return xw, yw, h
 
+    def _walker_box(self, z: F32, valid: BoolArray, floor: FloorPlane
+                    ) -> tuple[F32, F32, F32, BoolArray, BoolArray | None, int] | None:
+        """The floor-plane branch of :meth:`_process`'s pixel pass compiled (:func:`walker_gait.core._jit.walker_box`):
+        walker x, y, height, the box's mask, the reach band's (None where nothing uses it) and the count of valid
+        pixels above the floor's threshold, bit for bit as the numpy code; None without the kernels or where the
+        intrinsics do not match the image (the numpy code's slow path)."""
+        jit = kernels.compiled()
+        intr = self.intrinsics
+        if jit is None or intr is None or (intr.height, intr.width) != z.shape:
+            return None
+        if self._rays_for != intr:
+            self._rx = ((np.arange(intr.width) - intr.cx) / intr.fx).astype(np.float32)
+            self._ry = ((np.arange(intr.height) - intr.cy) / intr.fy).astype(np.float32)
+            self._rays_for = intr
+        roi = self.config.roi
+        rot, _ = floor.walker_transform()
+        n = z.size
+        xw, yw, h = np.empty(n, np.float32), np.empty(n, np.float32), np.empty(n, np.float32)
+        mask = np.empty(n, dtype=bool)
+        want_reach = self.static is not None or roi.center_max_shift > 0
+        reach = np.empty(n, dtype=bool)
+        f32 = np.float32
+        # branch-free: a plain height threshold is k z² + min_height with k = 0, no height limit an infinite one
+        # (the same decisions for every valid pixel, whose depth is finite)
+        k_m2 = f32(roi.min_height_per_m2) if roi.min_height_per_m2 > 0 else f32(0.0)
+        max_height = f32(roi.max_height) if roi.max_height is not None else f32(np.inf)
+        n_not_floor = jit.walker_box(
+            np.ascontiguousarray(z, dtype=np.float32), np.ascontiguousarray(valid).reshape(-1), self._rx, self._ry,
+            np.ascontiguousarray(rot, dtype=np.float32), f32(floor.offset), f32(roi.forward), f32(roi.near),
+            max_height, f32(roi.left + roi.center_max_shift), f32(-roi.right - roi.center_max_shift),
+            f32(roi.left + self.roi_shift), f32(self.roi_shift - roi.right), k_m2, f32(roi.min_height),
+            xw, yw, h, mask, reach)
+        return xw, yw, h, mask, (reach if want_reach else None), int(n_not_floor)
+
     def set_intrinsics(self, intrinsics: CameraIntrinsics | None) -> None:
         """Intrinsics the points are back-projected with (enables the fast path and HMM free space)."""
         self.intrinsics = intrinsics
@@ -1496,48 +1531,52 @@ class Segmenter:
         h: NDArray[np.float32] | None = None
         # where the auto-centred box can reach: the static mask learns there and the centring measures there
         in_reach: BoolArray | None = None
-        if floor.valid:
-            xw, yw, h = self._walker_coords(pts, z, floor)
-            in_roi = xw <= roi.forward  # in-place &= avoids temporaries (speed)
-            in_roi &= xw >= roi.near
-            if roi.max_height is not None:
-                in_roi &= h <= roi.max_height
-            if self.static is not None or roi.center_max_shift > 0:
-                in_reach = in_roi & (yw <= roi.left + roi.center_max_shift)
-                in_reach &= yw >= -roi.right - roi.center_max_shift
-            in_roi &= yw <= roi.left + self.roi_shift
-            in_roi &= yw >= self.roi_shift - roi.right
-        elif cfg.floor_method == "background" and not cfg.require_floor:
-            # seed's camera-frame box: optical z forward, camera's left = optical -x
-            x = pts[:, 0]
-            in_roi = (zf <= roi.forward) & (zf >= roi.near) & (x >= -roi.left) & (x <= roi.right)
+        box = self._walker_box(z, valid, floor) if floor.valid and cfg.floor_method == "plane" else None
+        if box is not None:  # compiled: the same arrays, one pass (tested against the numpy code below)
+            xw, yw, h, mask, reach, n_not_floor = box
         else:
-            return self._empty(shape, "no_floor", n_valid=n_valid)
-
-        valid_f = valid.reshape(-1)
-        if cfg.floor_method == "plane":
-            assert h is not None
-            if roi.min_height_per_m2 > 0:
-                thr = zf * zf
-                thr *= np.float32(roi.min_height_per_m2)
-                thr += np.float32(roi.min_height)
-                not_floor = h > thr
+            if floor.valid:
+                xw, yw, h = self._walker_coords(pts, z, floor)
+                in_roi = xw <= roi.forward  # in-place &= avoids temporaries (speed)
+                in_roi &= xw >= roi.near
+                if roi.max_height is not None:
+                    in_roi &= h <= roi.max_height
+                if self.static is not None or roi.center_max_shift > 0:
+                    in_reach = in_roi & (yw <= roi.left + roi.center_max_shift)
+                    in_reach &= yw >= -roi.right - roi.center_max_shift
+                in_roi &= yw <= roi.left + self.roi_shift
+                in_roi &= yw >= self.roi_shift - roi.right
+            elif cfg.floor_method == "background" and not cfg.require_floor:
+                # seed's camera-frame box: optical z forward, camera's left = optical -x
+                x = pts[:, 0]
+                in_roi = (zf <= roi.forward) & (zf >= roi.near) & (x >= -roi.left) & (x <= roi.right)
             else:
-                not_floor = h > roi.min_height
-        else:
-            assert self.background is not None
-            if self.background.shape != shape:
-                return self._empty(shape, "background_mismatch", n_valid=n_valid)
-            not_floor = self.background.foreground_mask(
-                z, threshold=cfg.background_threshold, threshold_per_m2=cfg.background_threshold_per_m2
-            ).reshape(-1)
-        cand_nf = not_floor
-        cand_nf &= valid_f
-        n_not_floor = int(np.count_nonzero(cand_nf))
-        mask = cand_nf & in_roi
-        # the wider band the auto-centred box can reach gets the same structure filters as the box; the
-        # centring measures the legs there, so a leg the box cuts does not pull the box further off it
-        reach = None if in_reach is None else cand_nf & in_reach
+                return self._empty(shape, "no_floor", n_valid=n_valid)
+
+            valid_f = valid.reshape(-1)
+            if cfg.floor_method == "plane":
+                assert h is not None
+                if roi.min_height_per_m2 > 0:
+                    thr = zf * zf
+                    thr *= np.float32(roi.min_height_per_m2)
+                    thr += np.float32(roi.min_height)
+                    not_floor = h > thr
+                else:
+                    not_floor = h > roi.min_height
+            else:
+                assert self.background is not None
+                if self.background.shape != shape:
+                    return self._empty(shape, "background_mismatch", n_valid=n_valid)
+                not_floor = self.background.foreground_mask(
+                    z, threshold=cfg.background_threshold, threshold_per_m2=cfg.background_threshold_per_m2
+                ).reshape(-1)
+            cand_nf = not_floor
+            cand_nf &= valid_f
+            n_not_floor = int(np.count_nonzero(cand_nf))
+            mask = cand_nf & in_roi
+            # the wider band the auto-centred box can reach gets the same structure filters as the box; the
+            # centring measures the legs there, so a leg the box cuts does not pull the box further off it
+            reach = None if in_reach is None else cand_nf & in_reach
         n_static = 0
         if self.static is not None and reach is not None:
             # the previous frame's foreground (what the tracker got) showed no legs: see learn_without_legs
