@@ -780,6 +780,33 @@ def test_static_mask_counts_a_view_unchanged_since_it_began_towards_structure() 
         assert sm.static_pixels(z, cand)[box].all() == (i == cfg.frames - 1)
 
 
+@pytest.mark.parametrize(("shape", "stride"), [((480, 640), 4), ((61, 83), 4), ((50, 70), 3)])
+def test_compiled_static_pixels_are_numpys_bit_for_bit(shape: tuple[int, int], stride: int) -> None:
+    """The static structure's pixels compiled (``_jit.static_pixels``) as numpy finds them: learned cells and their
+    neighbours at their reference depth within the depth-dependent tolerance, images whose size the grid does not
+    divide, depth missing in places, references at the edges of the tolerance."""
+    from walker_gait.core import _jit, kernels
+
+    rng = np.random.default_rng(8)
+    cfg = StaticMaskConfig(grid_stride=stride)
+    grid = ((shape[0] + stride - 1) // stride, (shape[1] + stride - 1) // stride)
+    structure = np.where(rng.random(grid) < 0.3, rng.uniform(0.4, 3.0, grid), np.nan).astype(np.float32)
+    sm = StaticStructureMask(cfg)
+    sm.seed(structure, shape)
+    full = np.repeat(np.repeat(np.nan_to_num(structure, nan=1.5), stride, 0), stride, 1)[:shape[0], :shape[1]]
+    tol = cfg.tolerance + cfg.tolerance_per_m2 * full * full
+    depth = (full + rng.uniform(-1.5, 1.5, shape) * tol).astype(np.float32)  # a third of them beyond the tolerance
+    depth[rng.random(shape) < 0.05] = np.nan
+    mask = rng.random(shape) < 0.8
+    got = {}
+    for name, jit in (("numpy", None), ("compiled", _jit)):
+        with pytest.MonkeyPatch.context() as mp:
+            mp.setattr(kernels, "compiled", lambda jit=jit: jit)
+            got[name] = sm.static_pixels(depth, mask)
+    np.testing.assert_array_equal(got["compiled"], got["numpy"])
+    assert 0.1 < got["numpy"].mean() < 0.6 and not got["numpy"][~mask].any()
+
+
 def test_static_mask_learns_what_is_in_view_while_no_legs_are() -> None:
     """Frames whose candidates show no legs (``no_legs``) count in full, moving or not: a walker's wheel in view
     while its user is away is structure after ``frames`` such frames, before the user arrives; off

@@ -745,3 +745,24 @@ def walker_box(z, valid, rx, ry, rot, off, forward, near, max_height, reach_left
             mr[u] = box & (y <= box_left) & (y >= box_right)
         n_not_floor += count
     return n_not_floor
+
+
+_STATIC_PIXELS_SIG = ("void(float32[:, ::1], float32[:, ::1], boolean[:, ::1], int64, float32, float32, "
+                      "boolean[:, ::1])")
+
+
+@njit(_STATIC_PIXELS_SIG, cache=True, nogil=True, error_model="numpy")
+def static_pixels(grown, depth, mask, stride, tol, tol_per_m2, out):  # pragma: no cover - compiled (tested)
+    """:meth:`walker_gait.core.segmentation.StaticStructureMask.static_pixels` after its dilation, float32 as numpy
+    computes it: ``out`` is ``mask`` where the reference depth ``grown`` of the pixel's grid cell (``stride`` pixels
+    a side) is positive and the pixel's ``depth`` lies within ``tol + tol_per_m2 * ref²`` of it."""
+    rows, cols = depth.shape
+    for v in range(rows):
+        g = grown[v // stride]
+        dr = depth[v]
+        mr = mask[v]
+        outr = out[v]
+        for u in range(cols):
+            ref = g[u // stride]
+            t = tol + tol_per_m2 * ref * ref
+            outr[u] = mr[u] & (ref > 0) & (abs(dr[u] - ref) <= t)

@@ -1224,6 +1224,13 @@ class StaticStructureMask:
         ref = np.where(learned, self._ref, np.float32(0.0))
         grown = cv2.dilate(ref, np.ones((3, 3), np.uint8))  # the farthest learned reference around each cell
         grown = np.where(learned, ref, grown)  # a learned cell keeps its own reference
+        jit = kernels.compiled()
+        if jit is not None:  # one pass, bit for bit as the numpy code below (tested)
+            c = self.config
+            jit.static_pixels(np.ascontiguousarray(grown, dtype=np.float32), np.ascontiguousarray(depth_m,
+                              dtype=np.float32), np.ascontiguousarray(mask, dtype=bool), s, np.float32(c.tolerance),
+                              np.float32(c.tolerance_per_m2), out)
+            return out
         h, w = mask.shape
         full = np.repeat(np.repeat(grown, s, axis=0), s, axis=1)[:h, :w]
         with np.errstate(invalid="ignore"):
