@@ -423,6 +423,31 @@ def test_thin_parts_drops_tubes_keeps_legs() -> None:
     assert not thin_parts(np.zeros_like(m), z, fx=262.5, fy=262.5, min_width=0.045).any()
 
 
+@pytest.mark.parametrize(("stride", "close_px"), [(2, 7), (4, 7), (1, 1), (3, 5)])
+def test_compiled_thin_parts_are_numpys_bit_for_bit(stride: int, close_px: int) -> None:
+    """``thin_parts`` compiled (``_jit.thin_parts``: runs, metric widths and the full-resolution verdicts) as numpy
+    decides it: random blobs and bars over a depth ramp, runs cut by the image's borders, widths at the threshold."""
+    from walker_gait.core import _jit, kernels
+
+    rng = np.random.default_rng(9)
+    m = np.zeros((237, 319), bool)
+    for _ in range(40):  # boxes of every size, some on the borders
+        r, c = rng.integers(-10, 237), rng.integers(-10, 319)
+        m[max(r, 0):r + rng.integers(1, 60), max(c, 0):c + rng.integers(1, 60)] = True
+    m &= rng.random(m.shape) > 0.03  # dropouts inside them
+    z = np.linspace(0.4, 3.0, m.shape[1], dtype=np.float32)[None, :].repeat(m.shape[0], 0)
+    z[rng.random(m.shape) < 0.02] = np.nan
+    got = {}
+    for name, jit in (("numpy", None), ("compiled", _jit)):
+        with pytest.MonkeyPatch.context() as mp:
+            mp.setattr(kernels, "compiled", lambda jit=jit: jit)
+            got[name] = [thin_parts(m, z, fx=262.5, fy=260.0, min_width=w, close_px=close_px, stride=stride)
+                         for w in (0.02, 0.045, 0.1)]
+    for a, b in zip(got["numpy"], got["compiled"]):
+        np.testing.assert_array_equal(b, a)
+    assert 0 < got["numpy"][1].sum() < m.sum() and not (got["numpy"][2] & ~m).any()
+
+
 def test_segmenter_drops_walker_bar_in_roi() -> None:
     """The walker cross-bar inside the ROI (1.5 cm radius) is removed from the first frame on."""
     rng = np.random.default_rng(5)

@@ -766,3 +766,58 @@ def static_pixels(grown, depth, mask, stride, tol, tol_per_m2, out):  # pragma: 
             ref = g[u // stride]
             t = tol + tol_per_m2 * ref * ref
             outr[u] = mr[u] & (ref > 0) & (abs(dr[u] - ref) <= t)
+
+
+_THIN_SIG = ("void(boolean[:, ::1], boolean[:, ::1], float32[:, ::1], float64, float64, float64, boolean[:, ::1], "
+             "int64, int64, int64, boolean[:, ::1])")
+
+
+@njit(_THIN_SIG, cache=True, nogil=True, error_model="numpy")
+def thin_parts(closed, m, z, kx, ky, min_width, mask, r0, c0, stride, out):  # pragma: no cover - compiled (tested)
+    """:func:`walker_gait.core.segmentation.thin_parts` after its closing, in float64 as numpy computes it: on the
+    sub-sampled grid, each pixel of ``m`` whose run of ``closed`` along its row times its depth ``z`` times ``kx``,
+    or along its column times ``ky``, is under ``min_width`` is thin; ``out`` (full resolution, False on entry)
+    gets each pixel of ``mask`` from ``r0``, ``c0`` on its grid cell's verdict (``stride`` pixels a side)."""
+    rows, cols = closed.shape
+    across = np.zeros((rows, cols), dtype=np.int64)
+    along = np.zeros((rows, cols), dtype=np.int64)
+    for i in range(rows):
+        j = 0
+        while j < cols:
+            if closed[i, j]:
+                k = j
+                while k < cols and closed[i, k]:
+                    k += 1
+                for t in range(j, k):
+                    across[i, t] = k - j
+                j = k
+            else:
+                j += 1
+    for j in range(cols):
+        i = 0
+        while i < rows:
+            if closed[i, j]:
+                k = i
+                while k < rows and closed[k, j]:
+                    k += 1
+                for t in range(i, k):
+                    along[t, j] = k - i
+                i = k
+            else:
+                i += 1
+    thin = np.zeros((rows, cols), dtype=np.bool_)
+    for i in range(rows):
+        for j in range(cols):
+            if m[i, j]:
+                zz = np.float64(z[i, j])
+                thin[i, j] = (np.float64(across[i, j]) * zz * kx < min_width) | \
+                    (np.float64(along[i, j]) * zz * ky < min_width)
+    h, w = mask.shape
+    r1 = min(h, r0 + rows * stride)
+    c1 = min(w, c0 + cols * stride)
+    for r in range(r0, r1):
+        tr = thin[(r - r0) // stride]
+        mr = mask[r]
+        outr = out[r]
+        for c in range(c0, c1):
+            outr[c] = tr[(c - c0) // stride] & mr[c]
