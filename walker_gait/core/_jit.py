@@ -757,15 +757,20 @@ def static_pixels(grown, depth, mask, stride, tol, tol_per_m2, out):  # pragma: 
     computes it: ``out`` is ``mask`` where the reference depth ``grown`` of the pixel's grid cell (``stride`` pixels
     a side) is positive and the pixel's ``depth`` lies within ``tol + tol_per_m2 * ref²`` of it."""
     rows, cols = depth.shape
+    ref = np.empty(cols, dtype=np.float32)  # a grid row's references and tolerances at full resolution
+    tr = np.empty(cols, dtype=np.float32)
     for v in range(rows):
-        g = grown[v // stride]
+        if v % stride == 0:
+            g = grown[v // stride]
+            for u in range(cols):
+                r = g[u // stride]
+                ref[u] = r
+                tr[u] = tol + tol_per_m2 * r * r
         dr = depth[v]
         mr = mask[v]
         outr = out[v]
         for u in range(cols):
-            ref = g[u // stride]
-            t = tol + tol_per_m2 * ref * ref
-            outr[u] = mr[u] & (ref > 0) & (abs(dr[u] - ref) <= t)
+            outr[u] = mr[u] & (ref[u] > 0) & (abs(dr[u] - ref[u]) <= tr[u])
 
 
 _THIN_SIG = ("void(boolean[:, ::1], boolean[:, ::1], float32[:, ::1], float64, float64, float64, boolean[:, ::1], "
