@@ -403,6 +403,27 @@ def test_depth_missing_for_a_moment_is_unknown_missing_for_long_is_background() 
         SegmenterConfig(no_depth_persistent=0.0).validate()
 
 
+def test_compiled_no_depth_average_is_numpys_bit_for_bit() -> None:
+    """The running share of frames without depth per pixel and the transient holes it gives, compiled
+    (``_jit.transient_no_depth``) and in numpy, over frames whose holes persist, come and go."""
+    from walker_gait.core import _jit, kernels
+
+    rng = np.random.default_rng(10)
+    persistent = rng.random((48, 64)) < 0.1
+    frames = [~(persistent | (rng.random((48, 64)) < p)) for p in np.linspace(0.0, 0.5, 40)]
+    got = {}
+    for name, jit in (("numpy", None), ("compiled", _jit)):
+        seg = Segmenter(SegmenterConfig(no_depth_frames=7), rng=np.random.default_rng(0))
+        with pytest.MonkeyPatch.context() as mp:
+            mp.setattr(kernels, "compiled", lambda jit=jit: jit)
+            got[name] = [seg._transient_no_depth(valid) for valid in frames]
+        got[name + " rate"] = seg._no_depth_rate
+    for a, b in zip(got["numpy"], got["compiled"]):
+        np.testing.assert_array_equal(b, a)
+    np.testing.assert_array_equal(got["compiled rate"], got["numpy rate"])
+    assert not got["numpy"][-1][persistent].any() and got["numpy"][-1].any()  # holes that stay are background
+
+
 def test_thin_parts_drops_tubes_keeps_legs() -> None:
     """Widths are metric (run length x depth / f): the same 20 px are a 2.3 cm tube at 0.6 m (dropped)
     but 9 cm at 2.4 m (kept); holes inside a leg do not split it; a thin sliver touching a leg is kept."""

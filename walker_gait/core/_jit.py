@@ -826,3 +826,18 @@ def thin_parts(closed, m, z, kx, ky, min_width, mask, r0, c0, stride, out):  # p
         outr = out[r]
         for c in range(c0, c1):
             outr[c] = tr[(c - c0) // stride] & mr[c]
+
+
+_NO_DEPTH_SIG = "void(boolean[::1], float32[::1], float32, float32, float32, boolean[::1])"
+
+
+@njit(_NO_DEPTH_SIG, cache=True, nogil=True, error_model="numpy")
+def transient_no_depth(valid, rate, decay, gain, persistent, out):  # pragma: no cover - compiled (tested)
+    """:meth:`walker_gait.core.segmentation.Segmenter._transient_no_depth`'s running average, float32 as numpy
+    computes it: each pixel's ``rate`` of frames without depth times ``decay`` plus ``gain`` where this frame has
+    none (not ``valid``), and ``out``: no depth now and a ``rate`` under ``persistent``."""
+    for i in range(valid.shape[0]):
+        missing = not valid[i]
+        r = rate[i] * decay + gain * np.float32(missing)
+        rate[i] = r
+        out[i] = missing & (r < persistent)

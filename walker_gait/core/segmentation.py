@@ -1654,6 +1654,12 @@ class Segmenter:
             self._no_depth_rate = rate = missing.astype(np.float32)
         else:
             gain = np.float32(1.0 / cfg.no_depth_frames)
+            jit = kernels.compiled()
+            if jit is not None and rate.flags.c_contiguous and valid.flags.c_contiguous:
+                out = np.empty(valid.shape, dtype=bool)  # one pass, bit for bit as the numpy code below (tested)
+                jit.transient_no_depth(valid.reshape(-1), rate.reshape(-1), np.float32(1.0) - gain, gain,
+                                       np.float32(cfg.no_depth_persistent), out.reshape(-1))
+                return out
             rate *= np.float32(1.0) - gain
             rate += gain * missing
         return missing & (rate < np.float32(cfg.no_depth_persistent))
