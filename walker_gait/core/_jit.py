@@ -1,5 +1,5 @@
-"""numba kernels of the tracker (likelihood, leg model, priors, feet measures); import through
-:func:`walker_gait.core.kernels.compiled` (needs numba), whose docstring lists them.
+"""numba kernels of the tracker (likelihood, leg model, priors, feet measures) and the segmentation; import
+through :func:`walker_gait.core.kernels.compiled` (needs numba), whose docstring lists them.
 
 All kernels are compiled with numpy's error model (a division by zero gives inf / NaN as in numpy, and
 leaves the loops free of Python's exception checks, which would stop their vectorisation), without fast-math

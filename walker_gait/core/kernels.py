@@ -38,11 +38,18 @@ The feet's measures (:mod:`walker_gait.core.feet`) pick the points they take fro
 more (:func:`toe_sides`, :func:`shoe_near`, :func:`shoe_strip`): one pass each instead of a dozen numpy masks, the
 same points in the same order (the distances agree to rounding, tested); the measures themselves stay numpy's.
 
+The segmentation (:mod:`walker_gait.core.segmentation`) runs four of its full-image passes compiled, each
+computing numpy's float32 (or float64) arithmetic pixel by pixel, so its masks, points and counters are numpy's bit
+for bit (tested): :func:`walker_box` (the walker coordinates, the floor's threshold, the box and its reach band),
+:func:`static_pixels` (the learned structure's pixels), :func:`thin_parts` (the runs, metric widths and verdicts)
+and :func:`transient_no_depth` (the running share of frames without depth).  Together the segmentation's frame went
+from ~7.5 to ~5.3 ms on the 2-core Intel VM (sixty-eighth session, DEVELOPERS.md).
+
 ``compiled()`` returns this module's kernels, or None when numba is not installed or the environment
 variable ``WALKER_GAIT_JIT=0`` turns them off; the tracker then runs its numpy code.  numba is
 imported on first use (not when the package is imported), and the kernels are cached on disk
 (``__pycache__``, or numba's user-wide cache directory where that is not writable), so only the first
-process after an install pays the compilation (about 2 s).
+process after an install pays the compilation (several seconds, README).
 """
 
 from __future__ import annotations

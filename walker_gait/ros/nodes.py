@@ -179,8 +179,10 @@ class FloorSegmentationNode(WalkerNode):
 
     def __init__(self, **kwargs: Any) -> None:
         super().__init__("floor_segmentation", **kwargs)
+        from walker_gait.core import kernels
         from walker_gait.core.segmentation import Segmenter, SegmenterConfig
 
+        kernels.compiled()  # the compiled pixel passes loaded before subscribing, as leg_tracker does (not on frame 1)
         config = self.declare_config(SegmenterConfig)
         seed = int(self.declare_parameter("seed", 0).value)
         self.segmenter = Segmenter(config, rng=stage_rng(seed, "floor_segmentation"))
