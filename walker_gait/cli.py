@@ -310,7 +310,7 @@ def build_parser() -> argparse.ArgumentParser:
                        "e.g. leg_tracker.n_particles=300")
         p.add_argument("--params-file", help="ROS 2 parameters YAML (default: config/walker_gait.yaml)")
         p.add_argument("--preset", default=None, help="tracker preset: default (real time), accurate (offline: 288 "
-                       "particles, 1.5x the tracking time, steps ~10 %% more accurate) or paper (the seed's)")
+                       "particles, 1.5x the tracking time, step lengths ~10 %% better on average) or paper (the seed's)")
         p.add_argument("--seed", type=int, default=0)
         p.add_argument("--passes", choices=("both", "forward"), default="both",
                        help="both (default): track the recording forwards and backwards in time and keep, frame by "
