@@ -773,6 +773,25 @@ def static_pixels(grown, depth, mask, stride, tol, tol_per_m2, out):  # pragma: 
             outr[u] = mr[u] & (ref[u] > 0) & (abs(dr[u] - ref[u]) <= tr[u])
 
 
+@njit(inline="always")
+def _row_runs(mask, out):  # pragma: no cover - compiled
+    """``out[i, j]``: the length of the run of True along row ``i`` of ``mask`` that pixel ``j`` belongs to (0 where
+    False, as left)."""
+    rows, cols = mask.shape
+    for i in range(rows):
+        j = 0
+        while j < cols:
+            if mask[i, j]:
+                k = j
+                while k < cols and mask[i, k]:
+                    k += 1
+                for t in range(j, k):
+                    out[i, t] = k - j
+                j = k
+            else:
+                j += 1
+
+
 _THIN_SIG = ("void(boolean[:, ::1], boolean[:, ::1], float32[:, ::1], float64, float64, float64, boolean[:, ::1], "
              "int64, int64, int64, boolean[:, ::1])")
 
@@ -785,38 +804,16 @@ def thin_parts(closed, m, z, kx, ky, min_width, mask, r0, c0, stride, out):  # p
     gets each pixel of ``mask`` from ``r0``, ``c0`` on its grid cell's verdict (``stride`` pixels a side)."""
     rows, cols = closed.shape
     across = np.zeros((rows, cols), dtype=np.int64)
-    along = np.zeros((rows, cols), dtype=np.int64)
-    for i in range(rows):
-        j = 0
-        while j < cols:
-            if closed[i, j]:
-                k = j
-                while k < cols and closed[i, k]:
-                    k += 1
-                for t in range(j, k):
-                    across[i, t] = k - j
-                j = k
-            else:
-                j += 1
-    for j in range(cols):
-        i = 0
-        while i < rows:
-            if closed[i, j]:
-                k = i
-                while k < rows and closed[k, j]:
-                    k += 1
-                for t in range(i, k):
-                    along[t, j] = k - i
-                i = k
-            else:
-                i += 1
+    _row_runs(closed, across)
+    along = np.zeros((cols, rows), dtype=np.int64)  # transposed: the columns' runs
+    _row_runs(closed.T, along)
     thin = np.zeros((rows, cols), dtype=np.bool_)
     for i in range(rows):
         for j in range(cols):
             if m[i, j]:
                 zz = np.float64(z[i, j])
                 thin[i, j] = (np.float64(across[i, j]) * zz * kx < min_width) | \
-                    (np.float64(along[i, j]) * zz * ky < min_width)
+                    (np.float64(along[j, i]) * zz * ky < min_width)
     h, w = mask.shape
     r1 = min(h, r0 + rows * stride)
     c1 = min(w, c0 + cols * stride)
