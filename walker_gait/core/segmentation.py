@@ -1417,14 +1417,11 @@ class Segmenter:
         off = np.float32(floor.offset)
         intr = self.intrinsics
         if intr is not None and (intr.height, intr.width) == z.shape:
-            if self._rays_for != intr:
-                self._rx = ((np.arange(intr.width) - intr.cx) / intr.fx).astype(np.float32)
-                self._ry = ((np.arange(intr.height) - intr.cy) / intr.fy).astype(np.float32)
-                self._rays_for = intr
+            rx, ry = self._ray_coefficients(intr)
             out = []
             for k in range(3):
                 # coefficient image c(v, u) = R_k · (x/z, y/z, 1); walker coordinate = z * c
-                coef = np.add.outer(rot32[k, 1] * self._ry + rot32[k, 2], rot32[k, 0] * self._rx)
+                coef = np.add.outer(rot32[k, 1] * ry + rot32[k, 2], rot32[k, 0] * rx)
                 np.multiply(coef, z, out=coef)
                 out.append(coef.reshape(-1))
             out[2] += off
@@ -1434,6 +1431,14 @@ class Segmenter:
         h = pts @ rot32[2]
         h += off
         return xw, yw, h
+
+    def _ray_coefficients(self, intr: CameraIntrinsics) -> tuple[F32, F32]:
+        """Per column ``x/z`` and per row ``y/z`` of ``intr``'s pixels (float32), cached for the intrinsics."""
+        if self._rays_for != intr:
+            self._rx = ((np.arange(intr.width) - intr.cx) / intr.fx).astype(np.float32)
+            self._ry = ((np.arange(intr.height) - intr.cy) / intr.fy).astype(np.float32)
+            self._rays_for = intr
+        return self._rx, self._ry
 
     def _walker_box(self, z: F32, valid: BoolArray, floor: FloorPlane
                     ) -> tuple[F32, F32, F32, BoolArray, BoolArray | None, int] | None:
@@ -1445,10 +1450,7 @@ class Segmenter:
         intr = self.intrinsics
         if jit is None or intr is None or (intr.height, intr.width) != z.shape:
             return None
-        if self._rays_for != intr:
-            self._rx = ((np.arange(intr.width) - intr.cx) / intr.fx).astype(np.float32)
-            self._ry = ((np.arange(intr.height) - intr.cy) / intr.fy).astype(np.float32)
-            self._rays_for = intr
+        rx, ry = self._ray_coefficients(intr)
         roi = self.config.roi
         rot, _ = floor.walker_transform()
         n = z.size
@@ -1462,7 +1464,7 @@ class Segmenter:
         k_m2 = f32(roi.min_height_per_m2) if roi.min_height_per_m2 > 0 else f32(0.0)
         max_height = f32(roi.max_height) if roi.max_height is not None else f32(np.inf)
         n_not_floor = jit.walker_box(
-            np.ascontiguousarray(z, dtype=np.float32), np.ascontiguousarray(valid).reshape(-1), self._rx, self._ry,
+            np.ascontiguousarray(z, dtype=np.float32), np.ascontiguousarray(valid).reshape(-1), rx, ry,
             np.ascontiguousarray(rot, dtype=np.float32), f32(floor.offset), f32(roi.forward), f32(roi.near),
             max_height, f32(roi.left + roi.center_max_shift), f32(-roi.right - roi.center_max_shift),
             f32(roi.left + self.roi_shift), f32(self.roi_shift - roi.right), k_m2, f32(roi.min_height),
