@@ -360,6 +360,35 @@ def test_projector_stride() -> None:
         DepthProjector().points(depth)
 
 
+@pytest.mark.parametrize("stride", [1, 2, 3])
+def test_compiled_back_projection_is_numpys_bit_for_bit(stride: int) -> None:
+    """``points`` compiled (``_jit.back_project``) as numpy computes them: every coordinate, NaN and infinite depths
+    included, into a fresh array, a reused buffer, and numpy's code where the buffer is not contiguous."""
+    from walker_gait.core import _jit, kernels
+
+    intr = CameraIntrinsics(width=97, height=61, fx=80.3, fy=79.1, cx=47.2, cy=31.9)
+    depth = np.random.default_rng(5).uniform(0.3, 6.0, (61, 97)).astype(np.float32)
+    depth[::7, ::5] = np.nan
+    depth[3, 4] = np.inf
+    got = {}
+    for name, jit in (("numpy", None), ("compiled", _jit)):
+        proj = DepthProjector(intr, stride=stride)
+        with pytest.MonkeyPatch.context() as mp:
+            mp.setattr(kernels, "compiled", lambda jit=jit: jit)
+            buf = np.full((*proj.rays[0].shape, 3), 7.0, np.float32)
+            got[name] = (proj.points(depth), proj.points(depth, out=buf), buf)
+    for a, b in zip(got["numpy"], got["compiled"]):
+        np.testing.assert_array_equal(b, a)
+    assert got["compiled"][1] is got["compiled"][2]
+    assert np.isnan(got["numpy"][0]).any() and np.isfinite(got["numpy"][0]).mean() > 0.9
+    readonly = depth.copy()
+    readonly.flags.writeable = False  # a message's bytes
+    np.testing.assert_array_equal(DepthProjector(intr, stride=stride).points(readonly), got["numpy"][0])
+    strided = np.empty((*got["numpy"][0].shape[:2], 4), np.float32)[..., :3]  # not contiguous: numpy's code
+    with np.errstate(invalid="ignore"):
+        np.testing.assert_array_equal(DepthProjector(intr, stride=stride).points(depth, out=strided), got["numpy"][0])
+
+
 # --------------------------------------------------------------------------- real bag
 
 

@@ -498,6 +498,7 @@ def test_compiled_pixel_pass_is_numpys_bit_for_bit(config: SegmenterConfig, intr
         depth = noisy_depth(scene_cached(gait_legs(3 * i), intrinsics), noise_rng)
         if i == 5:
             depth[: depth.shape[0] // 3] = np.nan  # a frame with a third of its depth gone
+        depth.flags.writeable = i % 2 == 0  # and read-only depth images (a message's bytes)
         frames.append(depth)
     got = {}
     for name, jit in (("numpy", None), ("compiled", _jit)):

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 from numba import njit
+from numba import types as nt
 
 _F0 = np.float32(0.0)
 _F1 = np.float32(1.0)
@@ -692,9 +693,20 @@ def prior_terms(states, points, legs, ankle_sigma, pitch, lean, args, rise_on, d
         total[p] = t
 
 
-_WALKER_BOX_SIG = ("int64(float32[:, ::1], boolean[::1], float32[::1], float32[::1], float32[:, ::1], float32, "
-                   "float32, float32, float32, float32, float32, float32, float32, float32, float32, "
-                   "float32[::1], float32[::1], float32[::1], boolean[::1], boolean[::1])")
+# The segmentation's and the back-projection's kernels take their inputs as read-only arrays, which writable ones
+# also match: a caller's depth image may be a read-only buffer (a message's bytes), a one-row camera's ray image a
+# broadcast view.
+def _ro(dtype: nt.Type, ndim: int) -> nt.Array:
+    return nt.Array(dtype, ndim, "C", readonly=True)
+
+
+def _rw(dtype: nt.Type, ndim: int) -> nt.Array:
+    return nt.Array(dtype, ndim, "C")
+
+
+_F4 = nt.float32
+_WALKER_BOX_SIG = nt.int64(_ro(_F4, 2), _ro(nt.boolean, 1), _ro(_F4, 1), _ro(_F4, 1), _ro(_F4, 2), *[_F4] * 10,
+                           _rw(_F4, 1), _rw(_F4, 1), _rw(_F4, 1), _rw(nt.boolean, 1), _rw(nt.boolean, 1))
 
 
 @njit(_WALKER_BOX_SIG, cache=True, nogil=True, error_model="numpy")
@@ -747,8 +759,7 @@ def walker_box(z, valid, rx, ry, rot, off, forward, near, max_height, reach_left
     return n_not_floor
 
 
-_STATIC_PIXELS_SIG = ("void(float32[:, ::1], float32[:, ::1], boolean[:, ::1], int64, float32, float32, "
-                      "boolean[:, ::1])")
+_STATIC_PIXELS_SIG = nt.void(_ro(_F4, 2), _ro(_F4, 2), _ro(nt.boolean, 2), nt.int64, _F4, _F4, _rw(nt.boolean, 2))
 
 
 @njit(_STATIC_PIXELS_SIG, cache=True, nogil=True, error_model="numpy")
@@ -792,8 +803,8 @@ def _row_runs(mask, out):  # pragma: no cover - compiled
                 j += 1
 
 
-_THIN_SIG = ("void(boolean[:, ::1], boolean[:, ::1], float32[:, ::1], float64, float64, float64, boolean[:, ::1], "
-             "int64, int64, int64, boolean[:, ::1])")
+_THIN_SIG = nt.void(_ro(nt.boolean, 2), _ro(nt.boolean, 2), _ro(_F4, 2), nt.float64, nt.float64, nt.float64,
+                    _ro(nt.boolean, 2), nt.int64, nt.int64, nt.int64, _rw(nt.boolean, 2))
 
 
 @njit(_THIN_SIG, cache=True, nogil=True, error_model="numpy")
@@ -825,7 +836,7 @@ def thin_parts(closed, m, z, kx, ky, min_width, mask, r0, c0, stride, out):  # p
             outr[c] = tr[(c - c0) // stride] & mr[c]
 
 
-_NO_DEPTH_SIG = "void(boolean[::1], float32[::1], float32, float32, float32, boolean[::1])"
+_NO_DEPTH_SIG = nt.void(_ro(nt.boolean, 1), _rw(_F4, 1), _F4, _F4, _F4, _rw(nt.boolean, 1))
 
 
 @njit(_NO_DEPTH_SIG, cache=True, nogil=True, error_model="numpy")
@@ -838,3 +849,19 @@ def transient_no_depth(valid, rate, decay, gain, persistent, out):  # pragma: no
         r = rate[i] * decay + gain * np.float32(missing)
         rate[i] = r
         out[i] = missing & (r < persistent)
+
+
+_POINTS_SIG = nt.void(_ro(_F4, 2), _ro(_F4, 2), _ro(_F4, 2), _rw(_F4, 3))
+
+
+@njit(_POINTS_SIG, cache=True, nogil=True, error_model="numpy")
+def back_project(z, rx, ry, out):  # pragma: no cover - compiled (tested against numpy's)
+    """:meth:`walker_gait.core.depth.DepthProjector.points` in one pass, float32 as numpy computes it: ``out[v, u]``
+    is ``(z rx, z ry, z)`` of the pixel's depth ``z`` and ray images ``rx``, ``ry``."""
+    rows, cols = z.shape
+    for v in range(rows):
+        for u in range(cols):
+            zz = z[v, u]
+            out[v, u, 0] = zz * rx[v, u]
+            out[v, u, 1] = zz * ry[v, u]
+            out[v, u, 2] = zz
