@@ -1432,6 +1432,12 @@ class Segmenter:
         h += off
         return xw, yw, h
 
+    @property
+    def _uses_reach(self) -> bool:
+        """Whether anything reads the band the auto-centred box can reach (the static mask learns there, the centring
+        measures there)."""
+        return self.static is not None or self.config.roi.center_max_shift > 0
+
     def _ray_coefficients(self, intr: CameraIntrinsics) -> tuple[F32, F32]:
         """Per column ``x/z`` and per row ``y/z`` of ``intr``'s pixels (float32), cached for the intrinsics."""
         if self._rays_for != intr:
@@ -1456,7 +1462,7 @@ class Segmenter:
         n = z.size
         xw, yw, h = np.empty(n, np.float32), np.empty(n, np.float32), np.empty(n, np.float32)
         mask = np.empty(n, dtype=bool)
-        want_reach = self.static is not None or roi.center_max_shift > 0
+        want_reach = self._uses_reach
         reach = np.empty(n, dtype=bool)
         f32 = np.float32
         # branch-free: a plain height threshold is k z² + min_height with k = 0, no height limit an infinite one
@@ -1556,7 +1562,7 @@ class Segmenter:
                 in_roi &= xw >= roi.near
                 if roi.max_height is not None:
                     in_roi &= h <= roi.max_height
-                if self.static is not None or roi.center_max_shift > 0:
+                if self._uses_reach:
                     in_reach = in_roi & (yw <= roi.left + roi.center_max_shift)
                     in_reach &= yw >= -roi.right - roi.center_max_shift
                 in_roi &= yw <= roi.left + self.roi_shift
