@@ -46,8 +46,9 @@ def test_prefetch_worker_gives_identical_results(short_session: Path, tmp_path: 
 
 
 def test_worker_backward_pass_is_scored_here_as_inline(short_session: Path) -> None:
-    """The worker tracks backwards and sends its states; this process scores them on the frames read back from the
-    worker's store: the same poses and scores as the backward pass run and scored in one process."""
+    """The worker tracks backwards and sends its states and its poses' pending feet measures; this process scores
+    them and takes the measures on the frames read back from the worker's store: the same poses (toes measured from
+    the data, shoes' rise and turn) and scores as the backward pass run and scored in one process."""
     from walker_gait.io.bags import open_recording
     from walker_gait.pipeline import FrameProcessor, _Front
 
@@ -64,6 +65,11 @@ def test_worker_backward_pass_is_scored_here_as_inline(short_session: Path) -> N
     assert np.isfinite(worker.scores).sum() >= 60  # scored, not left NaN or -inf
     np.testing.assert_array_equal(worker.scores, inline.scores)
     np.testing.assert_array_equal([p.points for p in worker.poses], [p.points for p in inline.poses])
+    for name in ("shoe_rise", "shoe_turn"):
+        got = [np.full(2, -1.0) if getattr(p, name) is None else getattr(p, name) for p in worker.poses]
+        want = [np.full(2, -1.0) if getattr(p, name) is None else getattr(p, name) for p in inline.poses]
+        np.testing.assert_array_equal(got, want)
+        assert np.isfinite(got).sum() >= 60
     assert (worker.scoring_ms > 0).all()
 
 
@@ -497,7 +503,7 @@ def test_the_backward_pass_tells_its_tracker_that_time_runs_backwards(monkeypatc
     monkeypatch.setattr(smoothing, "track_pass", one_tracker)
     proc = FrameProcessor(_options(0, passes="both"))
     assert proc.backward([SimpleNamespace(intrinsics=None)]) == "pass"
-    assert made == [{"rng": made[0]["rng"], "mounting": "facing_user", "time_reversed": True}]
+    assert made == [{"rng": made[0]["rng"], "mounting": "facing_user", "time_reversed": True, "defer_feet": False}]
 
 
 def test_passes_must_be_known() -> None:

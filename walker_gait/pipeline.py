@@ -494,21 +494,42 @@ class FrameProcessor:
                                       rng=stage_rng(self.options.seed, "pass_scoring"), mounting=self.options.mounting)
         return float(score_passes(self._scorer, frame, [state], rng=frame_rng(self.options.seed, index))[0])
 
-    def backward(self, frames: Any, *, progress: Any = None, score: Any = None) -> PassTrack:
+    def backward(self, frames: Any, *, progress: Any = None, score: Any = None, defer_feet: bool = False) -> PassTrack:
         """The backward tracking pass over ``frames`` (a :class:`FrameStore` or sequence of prepared frames: every
         frame the forward pass tracked, in recording order), each estimate scored on its frame (by ``score(i, frame,
-        state)`` if given, as :func:`~walker_gait.core.smoothing.track_pass` takes it; else here)."""
+        state)`` if given, as :func:`~walker_gait.core.smoothing.track_pass` takes it; else here).  ``defer_feet``:
+        the poses come without the feet's measures (``LegTracker(defer_feet=True)``) and ``score`` is called as
+        ``score(i, frame, state, pending_feet)`` for the caller to complete them (:meth:`backward_feet`)."""
         from walker_gait.config import stage_rng
         from walker_gait.core.smoothing import track_pass
         from walker_gait.core.tracker import LegTracker
 
+        current: list[LegTracker] = []
+
         def make(frame: Any) -> LegTracker:
-            return LegTracker(self.options.tracker, frame.intrinsics,
-                              rng=stage_rng(self.options.seed, "leg_tracker_backward"), mounting=self.options.mounting,
-                              time_reversed=True)
+            current[:] = [LegTracker(self.options.tracker, frame.intrinsics,
+                                     rng=stage_rng(self.options.seed, "leg_tracker_backward"),
+                                     mounting=self.options.mounting, time_reversed=True, defer_feet=defer_feet)]
+            return current[0]
+
+        if defer_feet:
+            if score is None:
+                raise ValueError("defer_feet needs a score callback that takes the pending feet")
+            outer = score
+
+            def score(i: int, f: Any, x: Any) -> float:
+                return float(outer(i, f, x, current[0].pending_feet))
 
         return track_pass(make, frames, backward=True, score=score or (lambda i, f, x: self._score(f, x, i)),
                           progress=progress)
+
+    def backward_feet(self, intrinsics: Any) -> Any:
+        """The feet's measures of :meth:`backward`'s trackers for a camera (a
+        :class:`~walker_gait.core.tracker.FeetReport`: :meth:`~walker_gait.core.tracker.FeetReport.complete` with
+        ``defer_feet``)."""
+        from walker_gait.core.tracker import FeetReport
+
+        return FeetReport(self.options.tracker, intrinsics, mounting=self.options.mounting)
 
     def process(self, *, stamp: float, data: Any, encoding: str, width: int, height: int, step: int,
                 is_bigendian: bool) -> FrameResult | None:
@@ -867,14 +888,19 @@ class _Front:
         """The worker's backward pass (None inline); ``progress``: a tqdm-like bar it advances, or None.
 
         The worker sends the backward tracker's state after each frame and this process, idle once its forward pass
-        is done, scores it (:meth:`FrameProcessor._score`, on the frame read back from the worker's store): the
-        worker's pass, the end of the run's critical path, is spared the scoring."""
+        is done, scores it (:meth:`FrameProcessor._score`, on the frame read back from the worker's store) and takes
+        the feet's measures of its pose (the worker's trackers leave them out: ``LegTracker(defer_feet=True)``,
+        :meth:`~walker_gait.core.tracker.FeetReport.complete`): the worker's pass, the end of the run's critical
+        path, is spared both, and the poses are those of the inline pass bit for bit."""
         if not (self.forked and self.two_way):
             return None
         assert self._reader is not None
         n = len(self._stored)
         scores = np.full(n, np.nan)
         scoring_ms = np.zeros(n)
+        feet: list[tuple[Any, Any, Any] | None] = [None] * n  # each frame's measured (points, shoe rise, shoe turn)
+        last: tuple[Any, Any, Any] | None = None  # of the last pose estimated, which a held pose repeats
+        reports: dict[Any, Any] = {}
         while True:
             kind, payload = self._get()
             if kind == "bprog":
@@ -882,16 +908,27 @@ class _Front:
                     progress.update(payload)
                 continue
             if kind == "bstate":
-                i, state = payload
+                i, state, pending = payload
                 t0 = time.perf_counter()
-                scores[i] = self.proc._score(self._reader.at(*self._stored[i]), state, i)
-                scoring_ms[i] = (time.perf_counter() - t0) * 1e3
+                frame = self._reader.at(*self._stored[i])
+                scores[i] = self.proc._score(frame, state, i)
+                t1 = time.perf_counter()
+                if pending is not None:
+                    if frame.intrinsics not in reports:
+                        reports[frame.intrinsics] = self.proc.backward_feet(frame.intrinsics)
+                    last = reports[frame.intrinsics].measured(pending, points=frame.points, floor=frame.floor,
+                                                              no_depth=frame.no_depth)
+                feet[i] = last
+                scoring_ms[i] = (t1 - t0) * 1e3
                 continue
             if kind == "backward":
                 if len(payload.poses) != n or np.isnan(scores).any():
                     raise RuntimeError(f"the frame-preparing worker's backward pass covers {len(payload.poses)} "
                                        f"frames, {int(np.isnan(scores).sum())} of them unscored, of {n}")
-                return dataclasses.replace(payload, scores=scores, scoring_ms=scoring_ms)
+                poses = [p if m is None or not np.all(np.isfinite(p.points)) else
+                         dataclasses.replace(p, points=m[0], shoe_rise=m[1], shoe_turn=m[2])
+                         for p, m in zip(payload.poses, feet, strict=True)]
+                return dataclasses.replace(payload, poses=poses, scores=scores, scoring_ms=scoring_ms)
             raise RuntimeError(f"unexpected message {kind!r} from the frame-preparing worker")
 
 
@@ -941,11 +978,11 @@ def _front_worker(q: Any, recording: Any, proc: FrameProcessor, store_path: Path
                     q.put(("bprog", 15, []))
             q.put(("bprog", done % 15, []))
 
-        def send(i: int, frame: Any, state: Any) -> float:  # scored by the parent (_Front.backward)
-            q.put(("bstate", (i, state), []))
+        def send(i: int, frame: Any, state: Any, feet: Any) -> float:  # scored and completed by the parent
+            q.put(("bstate", (i, state, feet), []))
             return math.nan
 
-        result: tuple[str, Any] = ("backward", proc.backward(store, progress=counted, score=send))
+        result: tuple[str, Any] = ("backward", proc.backward(store, progress=counted, score=send, defer_feet=True))
     except Exception as exc:  # noqa: BLE001 - raised in the parent
         result = ("error", exc)
     finally:

@@ -227,6 +227,39 @@ def test_the_tracker_reports_the_rise_of_each_shoes_upper_which_turns_with_the_f
     np.testing.assert_array_equal(np.stack([q.points for q in quiet]), np.stack([p.points for p in poses]))
 
 
+def test_feet_measures_left_out_and_taken_afterwards_give_the_same_poses(seq) -> None:  # noqa: ANN001
+    """``LegTracker(defer_feet=True)`` leaves the feet's measures out of its poses and their input in ``pending_feet``
+    (None where it held its last pose or had none); ``FeetReport.complete`` on the same frame then gives the poses of a
+    tracker that measured them itself, bit for bit (``walker-gait process``'s worker hands its backward pass's to
+    the main process).  A held pose repeats the last one estimated, measures and all."""
+    empty = np.full((KINECT.height, KINECT.width), np.nan, np.float32)
+    frames = [(f.stamp, f.points, f.depth, f.floor) for f in seq.frames[:8]]
+    frames += [(4.0 + k, np.zeros((0, 3), np.float32), empty, seq.frames[0].floor) for k in range(2)]  # held
+    frames += [(6.0 + 0.1 * k, f.points, f.depth, f.floor) for k, f in enumerate(seq.frames[8:14])]
+    plain = LegTracker(FAST, KINECT, rng=np.random.default_rng(3))
+    lazy = LegTracker(FAST, KINECT, rng=np.random.default_rng(3), defer_feet=True)
+    last = None
+    held = changed = 0
+    for stamp, pts, depth, floor in frames:
+        unknown = ~np.isfinite(depth)
+        want = plain.update(stamp=stamp, points=pts, depth_fg=depth, floor=floor, no_depth=unknown)
+        got = lazy.update(stamp=stamp, points=pts, depth_fg=depth, floor=floor, no_depth=unknown)
+        assert got.shoe_rise is None and got.shoe_turn is None
+        if lazy.pending_feet is not None:
+            done = lazy.feet.complete(got, lazy.pending_feet, points=pts, floor=floor, no_depth=unknown)
+            changed += int(not np.array_equal(done.points, got.points))
+            last = done
+        else:
+            assert last is not None  # the held frames follow an estimate
+            held += 1
+            done = dataclasses.replace(got, points=last.points, shoe_rise=last.shoe_rise, shoe_turn=last.shoe_turn)
+        np.testing.assert_array_equal(done.points, want.points)
+        np.testing.assert_array_equal(done.shoe_rise, want.shoe_rise)
+        np.testing.assert_array_equal(done.shoe_turn, want.shoe_turn)
+        assert done.status == want.status and done.confidence == want.confidence
+    assert held == 2 and changed > len(frames) // 2  # the measures moved the toes: the test compares something
+
+
 @pytest.mark.parametrize("cue", ["3d", "2d"])
 def test_single_cues_run(seq, cue: str) -> None:  # noqa: ANN001
     tr = LegTracker(preset("default", n_particles=32, init_rounds=2, cue=cue), KINECT, rng=np.random.default_rng(0))

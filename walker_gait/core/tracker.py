@@ -628,6 +628,69 @@ def _child_generator(rng: np.random.Generator) -> np.random.Generator:
         return np.random.default_rng(int(rng.integers(2**63)))
 
 
+class FeetReport:
+    """The feet's measures a :class:`LegTracker`'s pose reports: each toe measured from the foreground around the
+    tracked foot (``toe_from_data``, :func:`walker_gait.core.feet.measure_toes`; as tracked where the shoe may be cut
+    by the image's border) and the shoes' rise and turn (``shoes``, :func:`walker_gait.core.feet.measure_shoes`).
+
+    They are functions of the estimate's leg points (body frame) and the frame's foreground alone, and the tracking
+    does not read them, so a pass tracked with ``LegTracker(defer_feet=True)`` can have them taken afterwards, or in
+    another process (:meth:`complete`), with the same results bit for bit.
+    """
+
+    def __init__(self, config: TrackerConfig, intrinsics: CameraIntrinsics, *, mounting: str = "facing_user",
+                 shoes: bool = True) -> None:
+        self.config = config
+        self.intrinsics = intrinsics
+        self.mounting = mounting
+        self.shoes = shoes
+        self._toe_fit = ToeFit(min_height=config.fg_min_height)
+        self._rise_fit = ShoeRiseFit(min_height=config.fg_min_height)
+        self._turn_fit = ShoeTurnFit(min_height=config.fg_min_height)
+
+    def measure(self, pts_body: FloatArray, *, body: BodyFrame, fg_all_body: FloatArray,
+                no_depth: NDArray[np.bool_] | None) -> tuple[FloatArray, FloatArray | None, FloatArray | None]:
+        """``(leg points, shoe rise, shoe turn)``: ``pts_body`` ``(2, 5, 3)`` with the toes measured (``toe_from_data``),
+        and the shoes' measures (None without ``shoes``); ``fg_all_body``: the frame's foreground (body frame),
+        ``no_depth``: its pixels without depth where they count as unknown (else None)."""
+        if self.config.toe_from_data:
+            camera = body.to_body(np.zeros(3))
+            toes, _ = measure_toes(pts_body, fg_all_body, camera=camera, fit=self._toe_fit)
+            # a shoe cut by the image's border ends there, not at its toe box: along the foot the model's toe stays;
+            # across it, what is left of the shoe still gives its centre line
+            in_view = toes_in_view(body.to_camera(pts_body), body.to_camera(toes),
+                                   intrinsics=self.intrinsics, fit=self._toe_fit, no_depth=no_depth)
+            pts_body = pts_body.copy()
+            pts_body[:, TOE] = across_only(pts_body, toes, ~in_view)
+        rise = turn = None
+        if self.shoes:
+            rise, turn = measure_shoes(pts_body, fg_all_body, rise_fit=self._rise_fit, turn_fit=self._turn_fit)
+        return pts_body, rise, turn
+
+    def complete(self, pose: LegPose, pending: FloatArray, *, points: NDArray[np.floating], floor: FloorPlane,
+                 no_depth: NDArray[np.bool_] | None = None) -> LegPose:
+        """``pose``, returned by a ``defer_feet`` tracker's :meth:`LegTracker.update` whose
+        :attr:`~LegTracker.pending_feet` was ``pending``, with the feet's measures taken on that update's ``points``,
+        ``floor`` and ``no_depth``: the pose the tracker would have returned without ``defer_feet``.  (A pose the
+        tracker held instead, ``pending_feet`` None, repeats the last one it estimated, measures and all.)"""
+        pts, rise, turn = self.measured(pending, points=points, floor=floor, no_depth=no_depth)
+        return replace(pose, points=pts, shoe_rise=rise, shoe_turn=turn)
+
+    def measured(self, pending: FloatArray, *, points: NDArray[np.floating], floor: FloorPlane,
+                 no_depth: NDArray[np.bool_] | None = None) -> tuple[FloatArray, FloatArray | None, FloatArray | None]:
+        """What :meth:`complete` puts in the pose: its leg points (camera frame), shoe rise and shoe turn."""
+        pts = np.asarray(points, dtype=np.float64)
+        finite = np.isfinite(pts)
+        if not finite.all():  # as LegTracker.update
+            pts = pts[finite.all(axis=1)]
+        unknown = None
+        if no_depth is not None and self.config.no_depth_unknown:
+            unknown = np.asarray(no_depth, dtype=bool)
+        body = BodyFrame.from_floor(floor, mounting=self.mounting)
+        measured, rise, turn = self.measure(pending, body=body, fg_all_body=body.to_body(pts), no_depth=unknown)
+        return body.to_camera(measured), rise, turn
+
+
 class LegTracker:
     """Particle-filter tracker of both legs (see module docstring).
 
@@ -638,7 +701,22 @@ class LegTracker:
     (:func:`walker_gait.core.feet.measure_shoes`: about 2 ms a frame with the compiled kernels, 9 without, on the
     slow 2-core VM of the sixty-fourth session), which the placement (:mod:`walker_gait.core.pelvis`, offline and
     live) turns into the heels' pitch and heading; false (nothing placed afterwards: the placement off): None.
+    ``defer_feet``: the feet's measures (the toes measured from the data, ``toe_from_data``, and the shoes'; ~3 ms of
+    the ~17 a frame) are left out of the poses, which report the particles' mean feet, and each :meth:`update` that
+    estimates a pose leaves their input in :attr:`pending_feet` (None otherwise: no pose, or the last one held) for
+    :meth:`FeetReport.complete`, in this process or another: the same poses bit for bit (``walker-gait process``'s
+    worker hands its backward pass's to the main process, which is idle by then).  The tracking does not read them.
     """
+
+    @property
+    def measure_shoes(self) -> bool:
+        """Whether the poses report the shoes' rise and turn (the constructor's ``measure_shoes``)."""
+        return self._feet.shoes
+
+    @property
+    def feet(self) -> FeetReport:
+        """The feet's measures this tracker's poses report (for :meth:`FeetReport.complete` with ``defer_feet``)."""
+        return self._feet
 
     def __init__(
         self,
@@ -649,6 +727,7 @@ class LegTracker:
         mounting: str = "facing_user",
         time_reversed: bool = False,
         measure_shoes: bool = True,
+        defer_feet: bool = False,
     ) -> None:
         if mounting not in ("facing_user", "facing_forward"):
             raise ValueError(f"mounting must be 'facing_user' or 'facing_forward', got {mounting!r}")
@@ -660,7 +739,9 @@ class LegTracker:
         self._redetect_rng = _child_generator(rng)
         self.mounting = mounting
         self.time_reversed = time_reversed  # fed a recording backwards (stamps negated): the walker backs away
-        self.measure_shoes = measure_shoes
+        self.defer_feet = defer_feet
+        self.pending_feet: FloatArray | None = None  # with defer_feet: the last update's points for FeetReport.complete
+        self._feet = FeetReport(config, intrinsics, mounting=mounting, shoes=measure_shoes)
         self._noise = config.noise_vector()
         self._angle_mask = StateLayout.angle_mask()
         self._p3 = Cue3DParams(
@@ -677,9 +758,6 @@ class LegTracker:
         )
         self._floor_clip = np.array([False, False, True] * 2)
         self._presence = config.presence_test()
-        self._toe_fit = ToeFit(min_height=config.fg_min_height)
-        self._rise_fit = ShoeRiseFit(min_height=config.fg_min_height)
-        self._turn_fit = ShoeTurnFit(min_height=config.fg_min_height)
         self._work = Workspace()  # likelihood scratch buffers, reused across frames
         kernels.compiled()  # load the likelihood's compiled kernels now (compiled once after an install), not on frame 1
         self.reset()
@@ -776,6 +854,7 @@ class LegTracker:
         frame.  A frame without a valid floor is treated like one without foreground: a track coasts through up
         to ``coast_frames`` of them (DEGRADED, confidence 0), then the pose is NO_USER until the floor is back.
         """
+        self.pending_feet = None
         pts = np.asarray(points, dtype=np.float64)
         if pts.ndim != 2 or pts.shape[1] != 3:
             raise TrackerInputError(f"points must be (N, 3), got {pts.shape}")
@@ -1471,18 +1550,12 @@ class LegTracker:
         if math.isfinite(self.config.footprint_sigma):  # only that prior reads the footprints
             seen = (visibility[:, 2] >= self.config.show_above) & ~self._hidden.hidden[:, 2]
             self._footprints.update(stamp, pts_body, seen, release_s=self.config.footprint_release_s)
-        if self.config.toe_from_data:
-            camera = frame.body.to_body(np.zeros(3))
-            toes, _ = measure_toes(pts_body, frame.fg_all_body, camera=camera, fit=self._toe_fit)
-            # a shoe cut by the image's border ends there, not at its toe box: along the foot the model's toe stays;
-            # across it, what is left of the shoe still gives its centre line
-            in_view = toes_in_view(frame.body.to_camera(pts_body), frame.body.to_camera(toes),
-                                   intrinsics=self.intrinsics, fit=self._toe_fit, no_depth=frame.no_depth)
-            pts_body = pts_body.copy()
-            pts_body[:, TOE] = across_only(pts_body, toes, ~in_view)
         rise = turn = None
-        if self.measure_shoes:
-            rise, turn = measure_shoes(pts_body, frame.fg_all_body, rise_fit=self._rise_fit, turn_fit=self._turn_fit)
+        if self.defer_feet:
+            self.pending_feet = pts_body.copy()
+        else:
+            pts_body, rise, turn = self._feet.measure(pts_body, body=frame.body, fg_all_body=frame.fg_all_body,
+                                                      no_depth=frame.no_depth)
         pose = LegPose(
             stamp=stamp,
             points=frame.body.to_camera(pts_body),
