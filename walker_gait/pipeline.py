@@ -1156,11 +1156,13 @@ def process_recording(path: Path, out_dir: Path, *, options: PipelineOptions | N
     if options.write_report:
         from walker_gait.report import write_report
 
-        # matplotlib takes ~1.5 s: drawn in a second process while this one writes the other files
+        # the figures take ~1 s: drawn in a second process while this one writes the other files, half of them in a
+        # third (this one is idle once its files are written)
         files.append(out_dir / "report.html")
         report = _in_background(write_report, files[-1], steps=steps, events=events, poses=poses, summary=summary,
                                 metadata=metadata, ground_truth=dict(ground_truth) if ground_truth else None,
-                                floor=next((f for f in reversed(floors) if f.valid), None))
+                                floor=next((f for f in reversed(floors) if f.valid), None),
+                                processes=2 if _can_fork() else 1)
     files.append(out_dir / "steps.csv")
     write_steps_csv(files[-1], steps)
     files.append(out_dir / "events.csv")

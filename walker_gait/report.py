@@ -736,6 +736,43 @@ def _section(anchor: str, title: str, body: str) -> str:
     return f'<section id="{anchor}"><h2>{_esc(title)}</h2>{body}</section>'
 
 
+def _draw(jobs: Mapping[str, tuple[Any, tuple[Any, ...]]], *, processes: int = 1) -> dict[str, Any]:
+    """``{name: fn(*args)}`` for the figure ``jobs``; with ``processes`` >= 2 (and ``os.fork``) every other one of
+    them is drawn in a forked child and sent back pickled, the rest here meanwhile (each figure is its own
+    ``Figure``: nothing is shared).  A child that fails is not fatal: its figures are drawn here instead."""
+    names = list(jobs)
+    theirs = names[::2] if processes >= 2 and len(names) >= 2 and hasattr(os, "fork") else []
+    if not theirs:
+        return {k: fn(*args) for k, (fn, args) in jobs.items()}
+    import pickle
+
+    read_fd, write_fd = os.pipe()
+    pid = os.fork()
+    if pid == 0:  # pragma: no cover - the child (its coverage is not collected); tested through its results
+        code = 1
+        try:
+            os.close(read_fd)
+            with os.fdopen(write_fd, "wb") as fh:
+                pickle.dump({k: jobs[k][0](*jobs[k][1]) for k in theirs}, fh, protocol=pickle.HIGHEST_PROTOCOL)
+            code = 0
+        finally:
+            os._exit(code)
+    os.close(write_fd)
+    out = {k: jobs[k][0](*jobs[k][1]) for k in names if k not in theirs}
+    with os.fdopen(read_fd, "rb") as fh:
+        data = fh.read()
+    _, status = os.waitpid(pid, 0)
+    drawn: dict[str, Any] = {}
+    if status == 0:
+        try:
+            drawn = pickle.loads(data)
+        except Exception:  # noqa: BLE001 - drawn again below
+            drawn = {}
+    for k in theirs:
+        out[k] = drawn[k] if k in drawn else jobs[k][0](*jobs[k][1])
+    return {k: out[k] for k in names}
+
+
 def write_report(
     path: str | os.PathLike[str],
     *,
@@ -746,6 +783,7 @@ def write_report(
     metadata: Mapping[str, Any],
     ground_truth: Mapping[str, Any] | None = None,
     floor: FloorPlane | None = None,
+    processes: int = 1,
 ) -> Path:
     """Write the self-contained HTML report of one session.
 
@@ -766,6 +804,8 @@ def write_report(
         floor: floor plane for the heel/toe height plot.  When ``None`` the floor is fitted
             to the event positions (:func:`estimate_floor_from_events`); failing that,
             heights are shown relative to the lowest foot sample along the camera's -y axis.
+        processes: 2 draws half of the figures in a forked process (:func:`_draw`; where ``fork`` exists): about
+            half a second less for a 10 s session where a second core is idle (``walker-gait process``).
 
     Returns:
         The path of the written report.
@@ -805,6 +845,23 @@ def write_report(
         ("Detected", f"{len(poses_l)} leg poses, {n_hs} heel strikes, {n_to} toe offs, {len(steps_l)} steps"),
     ]
 
+    # the figures (most of the time here), drawn first, in two processes where asked
+    runs = footprint_chain(steps_l)
+    have_angles = bool(len(stamps)) and bool(np.isfinite(angles).any())
+    hs = {side: _heel_strikes(events_l, steps_l, side) for side in Side}
+    jobs: dict[str, tuple[Any, tuple[Any, ...]]] = {}
+    if have_angles:
+        jobs["cycle"] = (_fig_cycle_average, (stamps, angles, hs, events_l))
+        jobs["angles"] = (_fig_joint_angles, (stamps, angles, t0))
+    if steps_l or gt_steps:
+        jobs["steps"] = (_fig_steps, (steps_l, gt_steps, t0))
+    if runs:
+        jobs["footprints"] = (_fig_footprints, (runs,))
+    if len(stamps):
+        jobs["quality"] = (_fig_quality, (stamps, conf, status, t0))
+        jobs["heights"] = (_fig_foot_heights, (stamps, points, events_l, floor, t0))
+    figs = _draw(jobs, processes=processes)
+
     sections: list[str] = []
     # summary
     summ_body = _summary_table(summ, gt_summary)
@@ -824,7 +881,7 @@ def write_report(
 
     # steps figure
     if steps_l or gt_steps:
-        body = _img(_fig_steps(steps_l, gt_steps, t0), "Step length and step width per step, left and right")
+        body = _img(figs["steps"], "Step length and step width per step, left and right")
         if not steps_l:
             body = _empty("No steps detected (ground truth only).") + body
         body += ('<p class="note">Step length: distance along the walking direction between the two heels at '
@@ -836,9 +893,8 @@ def write_report(
     sections.append(_section("steps-plot", "Step length and width", body))
 
     # footprints
-    runs = footprint_chain(steps_l)
     if runs:
-        b64, shown, total = _fig_footprints(runs)
+        b64, shown, total = figs["footprints"]
         body = _img(b64, "Footprints on a straightened walkway, left and right")
         if shown < total:
             body += f'<p class="note">The first {shown:.0f} m of {total:.0f} m are shown.</p>'
@@ -853,17 +909,15 @@ def write_report(
     sections.append(_section("footprints", "Footprints", body))
 
     # joint angles
-    have_angles = bool(len(stamps)) and bool(np.isfinite(angles).any())
     if have_angles:
-        body = _img(_fig_joint_angles(stamps, angles, t0), "Hip, knee and ankle sagittal angles over time")
+        body = _img(figs["angles"], "Hip, knee and ankle sagittal angles over time")
     else:
         body = _empty("No leg poses were tracked." if not len(stamps) else "No joint angles available.")
     sections.append(_section("joint-angles", "Joint angles over time", body))
 
     # gait-cycle averages
-    hs = {side: _heel_strikes(events_l, steps_l, side) for side in Side}
     if have_angles:
-        b64, counts = _fig_cycle_average(stamps, angles, hs, events_l)
+        b64, counts = figs["cycle"]
     else:
         b64, counts = None, dict.fromkeys(Side, 0)
     if b64 is not None:
@@ -879,7 +933,7 @@ def write_report(
 
     # foot heights
     if len(stamps):
-        body = _img(_fig_foot_heights(stamps, points, events_l, floor, t0), "Heel and toe height over time")
+        body = _img(figs["heights"], "Heel and toe height over time")
         body += ('<p class="note">Solid line: heel; dashed: toe. ▼ / solid vertical line: heel strike; '
                  f"▲ / dotted vertical line: toe off. {_esc(floor_note)}</p>")
     else:
@@ -888,7 +942,7 @@ def write_report(
 
     # tracking quality
     if len(stamps):
-        body = _img(_fig_quality(stamps, conf, status, t0), "Tracking confidence and status over time")
+        body = _img(figs["quality"], "Tracking confidence and status over time")
         frac = {st: float(np.mean(status == int(st))) for st in TrackStatus}
         body += '<p class="note">Share of frames: ' + ", ".join(
             f'<span class="key" style="background:{_STATUS_COLOURS[st]}"></span> '
