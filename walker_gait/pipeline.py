@@ -899,6 +899,7 @@ class _Front:
         scores = np.full(n, np.nan)
         scoring_ms = np.zeros(n)
         feet: list[tuple[Any, Any, Any] | None] = [None] * n  # each frame's measured (points, shoe rise, shoe turn)
+        feet_ms = np.zeros(n)  # their time, the tracker's work done here
         last: tuple[Any, Any, Any] | None = None  # of the last pose estimated, which a held pose repeats
         reports: dict[Any, Any] = {}
         while True:
@@ -920,6 +921,7 @@ class _Front:
                                                               no_depth=frame.no_depth)
                 feet[i] = last
                 scoring_ms[i] = (t1 - t0) * 1e3
+                feet_ms[i] = (time.perf_counter() - t1) * 1e3
                 continue
             if kind == "backward":
                 if len(payload.poses) != n or np.isnan(scores).any():
@@ -928,7 +930,8 @@ class _Front:
                 poses = [p if m is None or not np.all(np.isfinite(p.points)) else
                          dataclasses.replace(p, points=m[0], shoe_rise=m[1], shoe_turn=m[2])
                          for p, m in zip(payload.poses, feet, strict=True)]
-                return dataclasses.replace(payload, poses=poses, scores=scores, scoring_ms=scoring_ms)
+                return dataclasses.replace(payload, poses=poses, scores=scores, scoring_ms=scoring_ms,
+                                           tracker_ms=payload.tracker_ms + feet_ms)
             raise RuntimeError(f"unexpected message {kind!r} from the frame-preparing worker")
 
 

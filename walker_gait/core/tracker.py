@@ -708,16 +708,6 @@ class LegTracker:
     worker hands its backward pass's to the main process, which is idle by then).  The tracking does not read them.
     """
 
-    @property
-    def measure_shoes(self) -> bool:
-        """Whether the poses report the shoes' rise and turn (the constructor's ``measure_shoes``)."""
-        return self._feet.shoes
-
-    @property
-    def feet(self) -> FeetReport:
-        """The feet's measures this tracker's poses report (for :meth:`FeetReport.complete` with ``defer_feet``)."""
-        return self._feet
-
     def __init__(
         self,
         config: TrackerConfig,
@@ -796,6 +786,16 @@ class LegTracker:
         if self._mean is None or pose is None or not bool(np.all(np.isfinite(pose.points))):
             return None
         return self._mean.copy()
+
+    @property
+    def measure_shoes(self) -> bool:
+        """Whether the poses report the shoes' rise and turn (the constructor's ``measure_shoes``)."""
+        return self._feet.shoes
+
+    @property
+    def feet(self) -> FeetReport:
+        """The feet's measures this tracker's poses report (for :meth:`FeetReport.complete` with ``defer_feet``)."""
+        return self._feet
 
     def score(
         self,
