@@ -500,16 +500,12 @@ class FrameProcessor:
         state)`` if given, as :func:`~walker_gait.core.smoothing.track_pass` takes it; else here).  ``defer_feet``:
         the poses come without the feet's measures (``LegTracker(defer_feet=True)``) and ``score`` is called as
         ``score(i, frame, state, pending_feet)`` for the caller to complete them (:meth:`backward_feet`)."""
-        from walker_gait.config import stage_rng
         from walker_gait.core.smoothing import track_pass
-        from walker_gait.core.tracker import LegTracker
 
-        current: list[LegTracker] = []
+        current: list[Any] = []
 
-        def make(frame: Any) -> LegTracker:
-            current[:] = [LegTracker(self.options.tracker, frame.intrinsics,
-                                     rng=stage_rng(self.options.seed, "leg_tracker_backward"),
-                                     mounting=self.options.mounting, time_reversed=True, defer_feet=defer_feet)]
+        def make(frame: Any) -> Any:
+            current[:] = [self._backward_tracker(frame.intrinsics, defer_feet=defer_feet)]
             return current[0]
 
         if defer_feet:
@@ -523,13 +519,19 @@ class FrameProcessor:
         return track_pass(make, frames, backward=True, score=score or (lambda i, f, x: self._score(f, x, i)),
                           progress=progress)
 
-    def backward_feet(self, intrinsics: Any) -> Any:
-        """The feet's measures of :meth:`backward`'s trackers for a camera (a
-        :class:`~walker_gait.core.tracker.FeetReport`: :meth:`~walker_gait.core.tracker.FeetReport.complete` with
-        ``defer_feet``)."""
-        from walker_gait.core.tracker import FeetReport
+    def _backward_tracker(self, intrinsics: Any, *, defer_feet: bool = False) -> Any:
+        """A tracker of :meth:`backward`'s (a fresh one per camera, each on the pass's own random stream)."""
+        from walker_gait.config import stage_rng
+        from walker_gait.core.tracker import LegTracker
 
-        return FeetReport(self.options.tracker, intrinsics, mounting=self.options.mounting)
+        return LegTracker(self.options.tracker, intrinsics, rng=stage_rng(self.options.seed, "leg_tracker_backward"),
+                          mounting=self.options.mounting, time_reversed=True, defer_feet=defer_feet)
+
+    def backward_feet(self, intrinsics: Any) -> Any:
+        """The feet's measures of :meth:`backward`'s trackers for a camera (their
+        :class:`~walker_gait.core.tracker.FeetReport`, for :meth:`~walker_gait.core.tracker.FeetReport.complete` with
+        ``defer_feet``)."""
+        return self._backward_tracker(intrinsics).feet
 
     def process(self, *, stamp: float, data: Any, encoding: str, width: int, height: int, step: int,
                 is_bigendian: bool) -> FrameResult | None:
