@@ -78,6 +78,11 @@ def test_camera_params_reach_every_stage_and_must_match(repo_root: Path) -> None
     assert (given.report_pelvis_window_s, given.leg_length_m) == (0.5, 0.91)
     cli = PipelineOptions.from_params(params, {"leg_tracker.leg_length_m": 0.91}, leg_length_m=0.85)
     assert cli.leg_length_m == 0.85
+    # the node's longest bridged gap is offline's: both bridge a hidden foot's stretch as long
+    assert options.bridge_hidden_s == 1.0
+    assert PipelineOptions.from_params(params, {"leg_tracker.bridge_hidden_s": 0.5}).bridge_hidden_s == 0.5
+    assert PipelineOptions.from_params(params, {"leg_tracker.bridge_hidden_s": 0.5}, bridge_hidden_s=0.0
+                                       ).bridge_hidden_s == 0.0
     params["floor_segmentation"]["depth_format"] = "kinect_raw"  # disagrees with depth_to_cloud's `auto`
     with pytest.raises(ParameterError, match="floor_segmentation.depth_format must match"):
         PipelineOptions.from_params(params, {})

@@ -66,6 +66,15 @@ NODE_PARAMS: dict[str, list[tuple[str, Any, str]]] = {
                               "adult's, thigh 0.43 m and calf 0.42 m, `pelvis.TYPICAL_THIGH_CALF_M`; "
                               "may be set while the node runs, for the next user: `ros2 param set /leg_tracker "
                               "leg_length_m 0.91`; the other parameters are read at start)"),
+        ("bridge_hidden_s", 1.0, "s; `leg_track_bridged` (LegTrack): `leg_track` with each stretch in which a foot was "
+                                 "hidden (its visibility under `hide_below`; the tracker holds its pose while the "
+                                 "real foot rolls off the floor and swings) bridged as `walker-gait process` bridges "
+                                 "it, once the foot has been seen again for 6 frames, if that is within this long "
+                                 "of its last frame seen (a foot planted when last seen rolled over its toe as the "
+                                 "floor carries it, else cubic curves between both ends: "
+                                 "`walker_gait.core.smoothing.LiveBridge`); its frames are held until then, every "
+                                 "frame published once, in order (latency 0 while both feet are seen, up to this "
+                                 "long + 6 frames for a hidden foot's frames); 0 = not published"),
         ("input_depth", 10, "queue depth of the three synchronised inputs: it absorbs bursts in which the tracker "
                             "is slower than the camera; small = track the newest frames (low latency, frames "
                             "skipped in every burst), large = work through the queued frames (none skipped, more "

@@ -145,6 +145,9 @@ class PipelineOptions:
         pelvis = trk.pop("pelvis_window_s", None)  # the node's reported pelvis; a command line's own value wins
         if pelvis is not None and "report_pelvis_window_s" not in kwargs:
             kwargs["report_pelvis_window_s"] = float(pelvis)
+        bridge = trk.pop("bridge_hidden_s", None)  # the node's bridged hidden feet, offline's reported ones
+        if bridge is not None and "bridge_hidden_s" not in kwargs:
+            kwargs["bridge_hidden_s"] = float(bridge)
         leg = trk.pop("leg_length_m", None)
         if leg is not None and "leg_length_m" not in kwargs:
             kwargs["leg_length_m"] = float(leg)

@@ -11,15 +11,17 @@ from walker_gait.bench.endtoend import (
     IN_VIEW_LEAD_S,
     IN_VIEW_TAIL_S,
     JOINT_KINDS,
+    PipelineRun,
     angle_errors,
     at_walker,
     frames_off_pct,
+    live_bridged,
     recovery_time,
     steps_in_view,
     true_leg_length,
 )
 from walker_gait.core.segmentation import RoiConfig
-from walker_gait.core.types import ANKLE, HIP, FloorPlane
+from walker_gait.core.types import ANKLE, HIP, FloorPlane, LegPose, TrackStatus
 
 
 def test_steps_in_view_need_a_second_with_the_user_in_view_before_the_heel_strike() -> None:
@@ -145,3 +147,31 @@ def test_frames_off_count_frames_without_a_pose_and_only_the_frames_asked_for() 
     assert frames_off_pct(err, frames) == pytest.approx(60.0)
     assert frames_off_pct(err, np.array([True, False, False, False, True, True])) == 0.0
     assert math.isnan(frames_off_pct(err, np.zeros(6, dtype=bool)))
+
+
+def test_the_bridged_live_poses_and_their_delays_are_the_live_bridges() -> None:
+    """``live_bridged``: a one-pass run's poses through the live bridge; a frame's delay runs from its stamp to the
+    stamp of the frame that released it (0 without a hidden foot), NaN where the recording ended first."""
+    from walker_gait.core.smoothing import BRIDGE_FIT_FRAMES, LiveBridge
+
+    floor = FloorPlane.from_camera_pose(height=0.5, pitch=0.5)
+    rot, t = floor.walker_transform()
+    poses = []
+    for i in range(40):
+        pts = np.zeros((2, 5, 3))
+        pts[..., 0] = -0.8 + 0.3 * i / 30
+        pts[..., 2] = [0.6, 0.4, 0.2, 0.12, 0.1]
+        vis = np.ones((2, 3))
+        if 10 <= i < 16 or i >= 37:  # hidden, then seen again; hidden to the end
+            vis[1, 2] = 0.0
+            pts[1] = poses[-1].points[1] if 10 < i < 16 or i > 37 else pts[1]
+        poses.append(LegPose(stamp=i / 30, points=(pts - t) @ rot, visibility=vis, status=TrackStatus.TRACKING))
+    run = PipelineRun(tracker_cue="combined", poses=poses, steps=[], timing_ms={}, tracker_ms=[], floors=[floor] * 40)
+    out, delay = live_bridged(run, hide_below=0.25)
+    bridge = LiveBridge(hide_below=0.25)
+    want = [p for i, pose in enumerate(poses) for p, _ in bridge.push(pose, floor, i)] + [p for p, _ in bridge.flush()]
+    assert all(np.array_equal(o.points, w.points) for o, w in zip(out, want, strict=True))
+    assert not np.array_equal(out[13].points, poses[13].points)
+    k = BRIDGE_FIT_FRAMES
+    assert np.allclose(delay[:10], 0.0) and np.allclose(delay[10:16 + k + 1], (16 + k - np.arange(10, 16 + k + 1)) / 30)
+    assert np.allclose(delay[16 + k + 1:37], 0.0) and np.isnan(delay[37:]).all()

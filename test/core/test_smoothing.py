@@ -11,7 +11,10 @@ from walker_gait.bench.tracker import KINECT, own_sequence
 from walker_gait.core import leg_model as lm
 from walker_gait.core.smoothing import (
     AGREE_M,
+    BRIDGE_FIT_FRAMES,
+    BRIDGE_MAX_S,
     BRIDGE_POINTS,
+    LiveBridge,
     SWITCH_COST_PER_M,
     PassTrack,
     UNCONFIRMED_FACTOR,
@@ -655,3 +658,117 @@ def test_reported_poses_roll_a_hidden_planted_foot_in_the_walker_frame() -> None
     assert np.abs(walker[8:18, 1, 2:] - truth[8:18, 1, 2:]).max() < 1e-3
     plain = reported_poses(camera, hide_below=0.25, lowpass_hz=0.0)
     assert np.abs(np.array([floor.to_walker(p.points) for p in plain])[8:18, 1, 2:] - truth[8:18, 1, 2:]).max() > 0.005
+
+
+def _to_camera(poses: list[LegPose], floor: FloorPlane) -> list[LegPose]:
+    """Poses given in ``floor``'s walker frame, in its camera's frame."""
+    rot, t = floor.walker_transform()
+    return [replace(p, points=(p.points - t) @ rot) for p in poses]
+
+
+def _live(bridge: LiveBridge, poses: list[LegPose], floors: list[FloorPlane]) -> tuple[list[LegPose], list[int]]:
+    """Every pose pushed through ``bridge`` and the rest flushed: the poses released, in order, and the index of the
+    push that released each (``len(poses)``: the flush)."""
+    out: list[tuple[LegPose, int]] = []
+    when: list[int] = []
+    for i, (pose, floor) in enumerate(zip(poses, floors)):
+        got = bridge.push(pose, floor, i)
+        out += got
+        when += [i] * len(got)
+    got = bridge.flush()
+    out += got
+    when += [len(poses)] * len(got)
+    assert [item for _, item in out] == list(range(len(poses)))  # every frame once, in order
+    return [p for p, _ in out], when
+
+
+def test_the_live_bridge_holds_a_hidden_foot_until_it_is_seen_again_and_bridges_it_as_offline() -> None:
+    """Frames come out as they come while both feet are seen; from a foot's hiding on they are held until it has
+    been seen again for ``fit_frames`` + 1 frames, then come out bridged as the offline bridge bridges the frames
+    received so far (here: a hidden foot planted on the floor, rolled over its toe, exactly)."""
+    poses, truth = _rolling_foot(40, range(8, 18))
+    floor = FloorPlane.from_camera_pose(height=0.5, pitch=np.radians(30.0))
+    camera = [replace(p, heel_tracked=p.points[:, 3] + 0.01) for p in _to_camera(poses, floor)]
+    out, when = _live(LiveBridge(hide_below=0.25), camera, [floor] * len(camera))
+    k = BRIDGE_FIT_FRAMES
+    assert when[:8] == list(range(8))  # no delay before the hiding
+    assert when[8:18 + k + 1] == [18 + k] * (11 + k)  # held until the foot was seen again for k + 1 frames
+    assert when[18 + k + 1:] == list(range(18 + k + 1, 40))
+    assert all(o is p for i, (o, p) in enumerate(zip(out, camera)) if not 8 <= i < 18)  # the rest untouched
+    walker = np.array([floor.to_walker(p.points) for p in out])
+    assert np.abs(walker[8:18, 1, 2:] - truth[8:18, 1, 2:]).max() < 1e-3  # as the offline bridge: exact here
+    offline = reported_poses(camera[:18 + k + 1], hide_below=0.25, lowpass_hz=0.0, floors=[floor] * (18 + k + 1))
+    for o, want in zip(out[8:18], offline[8:18]):
+        assert np.allclose(o.points, want.points, atol=1e-12, rtol=0.0)
+        assert np.array_equal(o.points[0], want.points[0])  # the other leg's points as they were (to the bit)
+    assert all(np.array_equal(o.heel_tracked, p.heel_tracked) for o, p in zip(out, camera))  # what the analysis read
+    assert all(o.visibility is p.visibility for o, p in zip(out, camera))
+
+
+@pytest.mark.parametrize("case", ["long", "start", "never_seen_after", "restart", "no_floor", "stamps_back"])
+def test_the_live_bridge_leaves_as_tracked_what_the_offline_bridge_leaves(case: str) -> None:
+    hidden = {"long": range(8, 40), "start": range(3, 12), "never_seen_after": range(15, 60), "restart": range(15, 25),
+              "no_floor": range(15, 25), "stamps_back": range(15, 25)}[case]
+    walker, _ = _walking(60, {0: hidden})  # 30 frames/s: "long" is 1.07 s, over the 1 s default
+    floor = FloorPlane.from_camera_pose(height=0.5, pitch=np.radians(30.0))
+    poses, floors = _to_camera(walker, floor), [floor] * 60
+    if case == "restart":  # a track restart (no pose) just after the gap: its far end is another track
+        poses[27] = LegPose.no_user(poses[27].stamp)
+    if case == "no_floor":  # a frame without a floor in the stretch's seen end: no walker frame to bridge in
+        floors[26] = replace(floor, valid=False)
+    if case == "stamps_back":  # the stream starts over (a replay looped): what is held comes out as tracked
+        poses[26:] = [replace(p, stamp=p.stamp - 1.0) for p in poses[26:]]
+    out, when = _live(LiveBridge(hide_below=0.25), poses, floors)
+    assert all(o is p for o, p in zip(out, poses))
+    if case == "long":  # released once the gap outgrew the longest bridge, each as soon as it is known
+        gone = 7 + next(i for i in range(1, 60) if poses[7 + i].stamp - poses[7].stamp > BRIDGE_MAX_S)
+        assert when[8:gone + 1] == [gone] * (gone - 7) and when[gone + 1:] == list(range(gone + 1, 60))
+    if case == "never_seen_after":
+        assert max(when) < 60  # the flush had nothing left
+    if case == "stamps_back":
+        assert when[15:26] == [26] * 11
+
+
+@pytest.mark.parametrize("history_s", [None, BRIDGE_MAX_S])
+def test_the_live_bridge_bridges_every_stretch_as_the_offline_bridge_over_the_whole_track(history_s: float | None
+                                                                                          ) -> None:
+    """Random hidden stretches of both legs (overlapping, too long, cut by a frame without a pose), legs away from
+    the floor (the bridge's curves, which read the frames around each stretch only): frame by frame, all released,
+    exactly the offline bridge's poses, with the shortest history allowed too."""
+    floor = FloorPlane.from_camera_pose(height=0.45, pitch=np.radians(25.0))
+    rng = np.random.default_rng(5)
+    bridged_any = False
+    for _ in range(12):
+        hidden: dict[int, range] = {}
+        for leg in (0, 1):
+            a = int(rng.integers(6, 60))
+            hidden[leg] = range(a, a + int(rng.integers(1, 40)))
+        walker, _ = _walking(90, hidden)
+        poses = _to_camera(walker, floor)
+        for i in rng.choice(90, size=2, replace=False):
+            if rng.random() < 0.5:
+                poses[int(i)] = LegPose.no_user(poses[int(i)].stamp)
+        kw = {} if history_s is None else {"history_s": history_s}
+        out, _ = _live(LiveBridge(hide_below=0.25, **kw), poses, [floor] * 90)
+        want = reported_poses(poses, hide_below=0.25, lowpass_hz=0.0, floors=[floor] * 90)
+        for o, w, p in zip(out, want, poses):
+            assert (o is p) == (w is p)
+            assert np.allclose(o.points, w.points, atol=1e-12, rtol=0.0, equal_nan=True)
+        bridged_any |= any(o is not p for o, p in zip(out, poses))
+    assert bridged_any
+
+
+def test_the_live_bridge_keeps_a_bounded_history_and_checks_its_arguments() -> None:
+    walker, _ = _walking(400, {0: range(100, 110), 1: range(300, 320)})
+    floor = FloorPlane.from_camera_pose(height=0.5, pitch=np.radians(30.0))
+    bridge = LiveBridge(hide_below=0.25)
+    most = 0
+    for i, pose in enumerate(_to_camera(walker, floor)):
+        bridge.push(pose, floor, i)
+        most = max(most, len(bridge._frames))
+    assert most <= 30 * (bridge.history_s + BRIDGE_MAX_S) + 2 * BRIDGE_FIT_FRAMES + 4
+    assert bridge.held == 0
+    for kwargs, match in (({"max_gap_s": 0.0}, "max_gap_s"), ({"fit_frames": 0}, "fit_frames"),
+                          ({"history_s": 0.5}, "history_s")):
+        with pytest.raises(ValueError, match=match):
+            LiveBridge(hide_below=0.25, **kwargs)

@@ -3,6 +3,7 @@ next good frame is processed. Messages enter through the same dispatch path as D
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Iterator
 from typing import Any
@@ -14,7 +15,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from walker_gait import messages as M
-from walker_gait.core.types import CameraIntrinsics, FloorPlane, TrackStatus
+from walker_gait.core.types import CameraIntrinsics, FloorPlane, LegPose, TrackStatus
 
 pytestmark = pytest.mark.ros
 
@@ -728,6 +729,75 @@ def test_leg_tracker_leg_length_reaches_the_placement_and_is_validated(rclpy_con
         node.destroy_node()
     with pytest.raises(ParameterError, match="leg_tracker.leg_length_m .*metres"):
         LegTrackerNode(parameter_overrides=[rclpy.parameter.Parameter("leg_length_m", value=88.0)])
+
+
+def test_leg_tracker_publishes_hidden_feet_bridged_on_a_track_of_its_own(rclpy_context: None) -> None:
+    """``leg_track_bridged``: ``leg_track``'s frames, each once and in order, those while a foot is hidden held until
+    it is seen again and then published bridged (here a foot moving steadily, held by the tracker while hidden:
+    bridged onto its real line); the frames around as published on ``leg_track``.  ``bridge_hidden_s`` 0: no such
+    topic; a negative value is refused."""
+    from walker_gait.bench.tracker import KINECT
+    from walker_gait.config import ParameterError
+    from walker_gait.core.smoothing import BRIDGE_FIT_FRAMES
+    from walker_gait.ros.nodes import LegTrackerNode
+
+    rot, t = STANDING_FLOOR.walker_transform()
+    n, hidden = 30, range(10, 18)
+    truth, poses = [], []
+    for i in range(n):  # walker frame: both legs' points 10-60 cm up, moving steadily along x; the left foot hides
+        pts = np.zeros((2, 5, 3))
+        pts[..., 0] = -0.8 + 0.3 * i / 30
+        pts[..., 1] = [[0.1], [-0.1]]
+        pts[..., 2] = [0.6, 0.4, 0.2, 0.12, 0.1]
+        truth.append(pts)
+        vis = np.ones((2, 3))
+        if i in hidden:
+            vis[0, 2] = 0.0
+            pts = poses[-1].points.copy()
+            pts[1] = truth[-1][1]
+        else:
+            pts = pts.copy()
+        poses.append(LegPose(stamp=1.0 + i / 30, points=pts, visibility=vis, status=TrackStatus.TRACKING,
+                             confidence=0.9))
+    camera = [dataclasses.replace(p, points=(p.points - t) @ rot) for p in poses]
+    node, _ = make_tracker_node()
+    tracks: list[Any] = []
+    bridged: list[tuple[int, Any]] = []
+    node.pub_track = tracks.append
+    node.pub_bridged = lambda msg: bridged.append((len(tracks), msg))
+    node.pelvis = None  # the poses as given
+    try:
+        node.dispatch("depth/camera_info", M.CAMERA_INFO, node.on_info,
+                      M.serialize(M.make_camera_info(KINECT, M.make_header(1.0, "cam"))))
+        given = iter(camera)
+        node.tracker.update = lambda **kw: next(given)
+        for i in range(n):
+            send_foreground(node, 1.0 + i / 30)
+        assert len(tracks) == n
+        stamps = [M.stamp_to_ns(m.header.stamp) for m in tracks]
+        assert [M.stamp_to_ns(m.header.stamp) for _, m in bridged] == stamps
+        k = BRIDGE_FIT_FRAMES
+        # published with leg_track while both feet are seen; the hidden foot's frames once it was seen k + 1 times
+        assert [when for when, _ in bridged][:10] == list(range(1, 11))
+        assert [when for when, _ in bridged][10:18 + k + 1] == [18 + k + 1] * (8 + k + 1)
+        for i, (_, msg) in enumerate(bridged):
+            heel = np.array([[p.x, p.y, p.z] for p in msg.heel])
+            sent = np.array([[p.x, p.y, p.z] for p in tracks[i].heel])
+            want = STANDING_FLOOR.to_walker(heel)
+            if i in hidden:
+                assert np.abs(want[0] - truth[i][0, 3]).max() < 1e-5  # float32 messages
+                assert np.abs(STANDING_FLOOR.to_walker(sent)[0] - truth[i][0, 3]).max() > 0.005
+            else:
+                assert np.array_equal(heel, sent)
+    finally:
+        node.destroy_node()
+    node = LegTrackerNode(parameter_overrides=[rclpy.parameter.Parameter("bridge_hidden_s", value=0.0)])
+    try:
+        assert node.bridge is None and node.pub_bridged is None
+    finally:
+        node.destroy_node()
+    with pytest.raises(ParameterError, match="leg_tracker.bridge_hidden_s"):
+        LegTrackerNode(parameter_overrides=[rclpy.parameter.Parameter("bridge_hidden_s", value=-1.0)])
 
 
 def test_busy_monitor_says_once_per_episode_that_a_node_falls_behind() -> None:

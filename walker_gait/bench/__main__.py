@@ -81,7 +81,7 @@ def section_segmentation(seed: int) -> list[str]:
 
 
 def section_endtoend(scenarios: tuple[str, ...], duration: float, seed: int) -> tuple[list[str], list[Any]]:
-    from walker_gait.bench.endtoend import evaluate, render, true_leg_length
+    from walker_gait.bench.endtoend import evaluate, render, run_pipeline, true_leg_length
     from walker_gait.synth import SessionSpec, generate_session
 
     scores = []
@@ -95,10 +95,16 @@ def section_endtoend(scenarios: tuple[str, ...], duration: float, seed: int) -> 
                                                               ("combined", "both", 0.0, "accurate")]
         for cue, passes, leg, preset in runs:
             t0 = time.perf_counter()
+            run = run_pipeline(session, rendered, preset=preset, cue=cue, seed=seed, passes=passes, leg_length_m=leg)
             sc = evaluate(session, preset=preset, cue=cue, seed=seed, rendered=rendered, passes=passes,
-                          leg_length_m=leg)
+                          leg_length_m=leg, run=run)
             if passes == "forward":
                 sc = dataclasses.replace(sc, cue=f"{cue}, one pass")
+                # the same run as the live leg_tracker's leg_track_bridged has it
+                scores.append(sc)
+                sc = dataclasses.replace(evaluate(session, preset=preset, cue=cue, seed=seed, rendered=rendered,
+                                                  passes=passes, run=run, bridged=True),
+                                         cue=f"{cue}, one pass, bridged live")
             if leg:
                 sc = dataclasses.replace(sc, cue=f"{cue}, leg length given")
             if preset != "default":
@@ -110,7 +116,11 @@ def section_endtoend(scenarios: tuple[str, ...], duration: float, seed: int) -> 
     lines = ["## End-to-end accuracy per scenario (preset `default`; `accurate` in its own row), cues side by side", "",
              "`walker-gait process` as it runs by default: the recording tracked forwards and backwards in time and "
              "the two passes merged frame by frame (`--passes both`); the `combined, one pass` row is the forward "
-             "pass alone (`--passes forward`), what the live graph computes; the `combined, leg length given` row is "
+             "pass alone (`--passes forward`), what the live graph computes; the `combined, one pass, bridged live` row "
+             "is the same run as the live `leg_tracker` publishes it on `leg_track_bridged` (each stretch in which a "
+             "foot was hidden bridged once it is seen again, its frames held until then: `bridge_hidden_s`; the steps "
+             "are the one-pass row's, the live analyzer reads `leg_track`; how long frames were held is listed below "
+             "the table); the `combined, leg length given` row is "
              "`--passes both` told the user's leg length (`--leg-length-m`, the synthetic user's true one: thigh + "
              "shank + ankle height), which sets the reported thighs and calves (the hips' height) and nothing "
              "else; the `combined, preset accurate` row is `--preset accurate` (288 particles instead of 192, for offline use). "
@@ -154,6 +164,11 @@ def section_endtoend(scenarios: tuple[str, ...], duration: float, seed: int) -> 
             + " | ".join(f(j.get(p, float('nan'))) for p in ("hip", "knee", "ankle", "heel", "toe"))
             + f" | {f(sc.frames_over_10cm_at_walker_pct)} / {f(sc.frames_over_10cm_pct)} | {sc.swap_frames} | {f(sc.recovery_s, 2)} / {f(sc.recovery_in_image_s, 2)} | "
             f"{f(sc.ms_per_frame['tracker'])} | {f(sc.fps)} |")
+    lines += ["", "`leg_track_bridged` (the `bridged live` rows): the share of frames held back (a foot hidden, or "
+              "behind such a frame) and their delay, median / largest, from each frame's stamp to that of the frame "
+              "that released it (0: published with `leg_track`):", ""]
+    lines += [f"* {sc.scenario}: {f(sc.held_pct)} % held, {f(sc.held_s[0], 2)} / {f(sc.held_s[1], 2)} s"
+              for sc in scores if math.isfinite(sc.held_pct)]
     lines += ["", "How often each true joint is inside the camera image at all (frames %; a point outside it is "
               "only constrained by the model's lengths and the parts below it):", ""]
     seen: set[str] = set()
@@ -265,6 +280,12 @@ def section_process_and_live(seed: int, live: bool) -> list[str]:
                       f"(> 0 = growing backlog); frames reported skipped: {lr.skipped or 'none'}, "
                       f"processed with a stand-in part: {lr.stood_in or 'none'}; "
                       f"{len(lr.steps)} steps (process: {len(res.steps)})"]
+            bl = lr.bridged_latencies_ms
+            lines += [f"* `leg_track_bridged` in the same run: {len(lr.bridged_stamps_ns)} LegTrack out (frames still "
+                      f"held when the replay ended are never published); latency image→LegTrack median "
+                      f"{f(float(np.median(bl)) if bl else math.nan, 0)} ms, p95 "
+                      f"{f(float(np.percentile(bl, 95)) if bl else math.nan, 0)} ms, largest "
+                      f"{f(max(bl) if bl else math.nan, 0)} ms (a hidden foot's frames wait for it to be seen again)"]
             lines += [f"  * `{line}`" for line in lr.skip_log]
     return lines + [""]
 

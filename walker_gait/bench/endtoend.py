@@ -8,6 +8,7 @@ errors (the seed paper's Tables 2-3 measure), heel-strike timing, cadence, and p
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
 import warnings
@@ -59,6 +60,8 @@ class Score:
     angle_bias_deg: dict[str, float] = field(default_factory=dict)  # ... and mean signed error
     tracker_first_ms: float = float("nan")  # the first frame (initial search)
     tracker_ms_after_first: float = float("nan")  # mean over the frames after it
+    held_pct: float = float("nan")  # live_bridged: share of the frames held back (a foot hidden, or behind one)
+    held_s: tuple[float, float] = (float("nan"), float("nan"))  # ... their delay, median and largest (s)
 
     @property
     def fps(self) -> float:
@@ -307,21 +310,53 @@ def run_pipeline(session: Any, rendered: Rendered, *, preset: str = "default", c
     return run
 
 
+def live_bridged(run: PipelineRun, *, hide_below: float) -> tuple[list[Any], np.ndarray]:
+    """A one-pass run's poses (``passes="forward"``: the live ``leg_track``) as the live ``leg_tracker`` publishes them
+    on ``leg_track_bridged`` (:class:`~walker_gait.core.smoothing.LiveBridge`), and each frame's delay (s: from its own
+    stamp to that of the frame that released it; NaN for frames still held at the end)."""
+    from walker_gait.core.smoothing import LiveBridge
+
+    bridge = LiveBridge(hide_below=hide_below)
+    out: list[Any] = [None] * len(run.poses)
+    delay = np.full(len(run.poses), np.nan)
+    for i, (pose, floor) in enumerate(zip(run.poses, run.floors, strict=True)):
+        for shown, j in bridge.push(pose, floor, i):
+            out[j], delay[j] = shown, float(pose.stamp) - float(run.poses[j].stamp)
+    for shown, j in bridge.flush():
+        out[j] = shown
+    return out, delay
+
+
 def evaluate(session: Any, *, preset: str = "default", cue: str | None = None, seed: int = 0,
              max_frames: int | None = None, overrides: dict[str, Any] | None = None,
-             rendered: Rendered | None = None, passes: str = "both", leg_length_m: float = 0.0) -> Score:
+             rendered: Rendered | None = None, passes: str = "both", leg_length_m: float = 0.0,
+             run: PipelineRun | None = None, bridged: bool = False) -> Score:
     """Run the pipeline on ``session`` (a ``walker_gait.synth.Session``) and score it (``passes`` and
-    ``leg_length_m`` as ``PipelineOptions``')."""
+    ``leg_length_m`` as ``PipelineOptions``'), or score ``run`` (:func:`run_pipeline`'s, on the same session and
+    frames).  ``bridged`` (a one-pass run): the poses as the live ``leg_track_bridged`` has them (:func:`live_bridged`;
+    the steps as they were, which the live analyzer reads from ``leg_track``)."""
     from walker_gait.bench.gait import match_steps, session_summaries
 
     rendered = rendered if rendered is not None else render(session, max_frames)
-    run = run_pipeline(session, rendered, preset=preset, cue=cue, seed=seed, max_frames=max_frames,
-                       overrides=overrides, passes=passes, leg_length_m=leg_length_m)
+    if run is None:
+        run = run_pipeline(session, rendered, preset=preset, cue=cue, seed=seed, max_frames=max_frames,
+                           overrides=overrides, passes=passes, leg_length_m=leg_length_m)
+    delay = None
+    if bridged:
+        from walker_gait.core.tracker import preset as tracker_preset
+
+        hide_below = dataclasses.replace(tracker_preset(preset), **(overrides or {})).hide_below
+        poses, delay = live_bridged(run, hide_below=hide_below)
+        run = dataclasses.replace(run, poses=poses)
     n = len(run.poses)
     intr = session.intrinsics
     timing, tracker_ms, poses, steps = run.timing_ms, run.tracker_ms, run.poses, run.steps
     score = Score(scenario=session.spec.scenario, preset=preset, cue=run.tracker_cue, frames=n,
                   ms_per_frame={k: v / max(n, 1) for k, v in timing.items()})
+    if delay is not None:
+        late = delay[np.isfinite(delay) & (delay > 0)]
+        score.held_pct = float(np.mean(~np.isfinite(delay) | (delay > 0)) * 100) if n else float("nan")
+        score.held_s = (float(np.median(late)), float(late.max())) if late.size else (0.0, 0.0)
     if tracker_ms:
         score.tracker_first_ms = tracker_ms[0]
         score.tracker_ms_after_first = float(np.mean(tracker_ms[1:])) if n > 1 else float("nan")

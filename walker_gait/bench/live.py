@@ -3,7 +3,8 @@
 ``run_live(path)`` starts the node graph with ``walker-gait run`` (one OS process per node, real DDS), waits until
 every link is subscribed, replays PATH into it with ``walker-gait replay``, subscribes
 came out: the steps, the latency from a depth image's arrival to the arrival of the JointState with the
-same stamp, frames in vs out, and the frames the nodes reported as skipped.
+same stamp (and of ``leg_track_bridged``'s LegTrack, which holds a hidden foot's frames until it is seen again), frames
+in vs out, and the frames the nodes reported as skipped.
 
 When the recording has one CameraInfo per depth image (same stamp, published next to it), the probe
 times a frame's arrival by its CameraInfo instead of subscribing to the 614 KB images: receiving them
@@ -31,6 +32,8 @@ from walker_gait import messages as M
 class LiveResult:
     images: int = 0
     joint_states: int = 0
+    bridged_stamps_ns: list[int] = field(default_factory=list)  # leg_track_bridged's frames, in arrival order
+    bridged_latencies_ms: list[float] = field(default_factory=list)  # image arrival -> leg_track_bridged arrival
     steps: list[Any] = field(default_factory=list)
     latencies_ms: list[float] = field(default_factory=list)
     skipped: dict[str, int] = field(default_factory=dict)
@@ -76,6 +79,7 @@ def run_live(path: Path, *, rate: float = 1.0, timeout_s: float = 120.0, settle_
     by_info = info_topic is not None and recording.topics[info_topic].count >= expected
     result = LiveResult()
     arrivals: dict[int, float] = {}
+    arrivals_bridged: dict[int, float] = {}
     rclpy.init()
     node = rclpy.create_node("walker_gait_live_probe")
     best_effort = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=50, reliability=ReliabilityPolicy.RELIABLE,
@@ -83,7 +87,7 @@ def run_live(path: Path, *, rate: float = 1.0, timeout_s: float = 120.0, settle_
 
     def on_image(data: bytes, typename: str = M.IMAGE) -> None:
         msg = M.deserialize(data, typename)
-        arrivals[M.stamp_to_ns(msg.header.stamp)] = time.monotonic()
+        arrivals[M.stamp_to_ns(msg.header.stamp)] = arrivals_bridged[M.stamp_to_ns(msg.header.stamp)] = time.monotonic()
         if result.first_stamp_ns is None:
             result.first_stamp_ns = M.stamp_to_ns(msg.header.stamp)
         result.images += 1
@@ -95,6 +99,14 @@ def run_live(path: Path, *, rate: float = 1.0, timeout_s: float = 120.0, settle_
         result.joint_states += 1
         if t_in is not None:
             result.latencies_ms.append((now - t_in) * 1e3)
+
+    def on_bridged(data: bytes) -> None:
+        now = time.monotonic()
+        stamp = M.stamp_to_ns(M.deserialize(data, M.LEG_TRACK).header.stamp)
+        result.bridged_stamps_ns.append(stamp)
+        t_in = arrivals_bridged.pop(stamp, None)
+        if t_in is not None:
+            result.bridged_latencies_ms.append((now - t_in) * 1e3)
 
     def on_diag(data: bytes) -> None:
         msg = M.deserialize(data, M.DIAGNOSTIC_ARRAY)
@@ -111,6 +123,7 @@ def run_live(path: Path, *, rate: float = 1.0, timeout_s: float = 120.0, settle_
     else:
         node.create_subscription(rclpy_type(M.IMAGE), "/depth/image_raw", on_image, best_effort, raw=True)
     node.create_subscription(rclpy_type(M.JOINT_STATE), "/joint_states", on_joints, best_effort, raw=True)
+    node.create_subscription(rclpy_type(M.LEG_TRACK), "/leg_track_bridged", on_bridged, best_effort, raw=True)
     node.create_subscription(rclpy_type(M.STEP), "/steps",
                              lambda d: result.steps.append(M.step_from_msg(M.deserialize(d, M.STEP))), EVENTS,
                              raw=True)

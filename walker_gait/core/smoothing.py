@@ -607,6 +607,163 @@ def _turn_to_reach(ankle: FloatArray, knee: FloatArray, calf: float, radius: flo
     return turn
 
 
+LIVE_BRIDGE_HISTORY_S = BRIDGE_MAX_S + BRIDGE_FLOOR_S
+"""s: :class:`LiveBridge` keeps the frames it has released for this long before the first one it still holds: the
+floor's velocity at a stretch is read over :data:`BRIDGE_FLOOR_S` either side of it."""
+
+
+@dataclass
+class _Held:
+    """One frame in a :class:`LiveBridge`."""
+
+    pose: LegPose  # as pushed (camera frame)
+    walker: LegPose  # in its floor's walker frame (no points without a valid floor)
+    transform: tuple[FloatArray, FloatArray] | None  # camera -> walker frame; None without a valid floor
+    item: object
+    hidden: NDArray[np.bool_]  # (2,) the foot hidden (a pose with points and a floor only)
+    seen: NDArray[np.bool_]  # (2,) the foot seen, with points and a floor
+    decided: NDArray[np.bool_]  # (2,) the hidden foot's stretch bridged (its points in ``final``)
+    final: LegPose | None = None  # walker frame, with its bridged legs' points
+
+
+class LiveBridge:
+    """:func:`bridge_hidden_legs` frame by frame, for the live graph: each stretch in which a foot is hidden is
+    bridged as soon as it can be, and every frame is released in order, unchanged or bridged.
+
+    A frame in which neither foot is hidden (:data:`_feet_hidden`, ``hide_below`` as the tracker's) comes out at once
+    when nothing before it is held.  From the first frame in which a foot is hidden the frames are held until that
+    stretch is decided: it is bridged once the foot has been seen again for ``fit_frames`` + 1 frames (about 0.17 s at
+    30 Hz) within ``max_gap_s`` of its last frame seen before it, with :func:`bridge_hidden_legs` (``floor_frame``: in
+    each frame's walker frame, a planted foot rolled over its toe) over the frames kept, those since
+    :data:`LIVE_BRIDGE_HISTORY_S` before; it is left as tracked where the offline bridge leaves it (a stretch longer
+    than ``max_gap_s``, ends not seen for ``fit_frames`` frames either side, a frame without points or floor in
+    them).  So a stretch's poses come out at most ``max_gap_s`` + ``fit_frames`` frames after their time, as
+    bridged as offline, the floor's velocity and the fastest toe taken over the frames kept rather than the whole
+    recording.  ``push`` returns what it releases; ``flush`` the frames still held, as tracked (the recording
+    ended: no frame will decide them).  Pure bookkeeping around :func:`bridge_hidden_legs`; no ROS."""
+
+    def __init__(self, *, hide_below: float, max_gap_s: float = BRIDGE_MAX_S, fit_frames: int = BRIDGE_FIT_FRAMES,
+                 history_s: float = LIVE_BRIDGE_HISTORY_S) -> None:
+        if not (math.isfinite(max_gap_s) and max_gap_s > 0):
+            raise ValueError(f"max_gap_s must be a finite number > 0, got {max_gap_s}")
+        if fit_frames < 1:
+            raise ValueError(f"fit_frames must be >= 1, got {fit_frames}")
+        if not (math.isfinite(history_s) and history_s >= max_gap_s):
+            raise ValueError(f"history_s must be finite and >= max_gap_s ({max_gap_s}), got {history_s}")
+        self.hide_below = float(hide_below)
+        self.max_gap_s = float(max_gap_s)
+        self.fit_frames = int(fit_frames)
+        self.history_s = float(history_s)
+        self._frames: list[_Held] = []
+        self._next = 0  # index in _frames of the first frame not released
+
+    @property
+    def held(self) -> int:
+        """Frames pushed and not released yet."""
+        return len(self._frames) - self._next
+
+    def reset(self) -> None:
+        """Forget every frame, held ones included (a new track: new intrinsics, a restarted stream)."""
+        self._frames.clear()
+        self._next = 0
+
+    def push(self, pose: LegPose, floor: FloorPlane, item: object = None) -> list[tuple[LegPose, object]]:
+        """Take the next frame's ``pose`` (camera frame) and ``floor``; return the frames released by it, in order,
+        each as ``(pose, item)``: its pose as pushed, or bridged (camera frame), and the ``item`` pushed with it (a
+        message header, an index).  A stamp not after the last frame's starts over: the frames still held come out
+        as tracked first."""
+        out: list[tuple[LegPose, object]] = []
+        if self._frames and not float(pose.stamp) > float(self._frames[-1].pose.stamp):
+            out = self.flush()
+        transform = None
+        walker = LegPose.no_user(pose.stamp)
+        if floor.valid and np.all(np.isfinite(floor.normal)) and math.isfinite(floor.offset):
+            transform = floor.walker_transform()
+            walker = moved_pose(pose, *transform)
+        ok = transform is not None and _has_points(walker)
+        hidden = _feet_hidden(pose, self.hide_below) & ok
+        self._frames.append(_Held(pose=pose, walker=walker, transform=transform, item=item, hidden=hidden,
+                                  seen=~hidden & ok, decided=np.zeros(2, dtype=bool)))
+        out.extend(self._release())
+        self._trim()
+        return out
+
+    def flush(self) -> list[tuple[LegPose, object]]:
+        """Release every frame still held, as tracked where its stretch was not bridged yet, and start over."""
+        out = [self._emit(f) for f in self._frames[self._next:]]
+        self.reset()
+        return out
+
+    def _emit(self, f: _Held) -> tuple[LegPose, object]:
+        if f.final is None or f.transform is None:
+            return f.pose, f.item
+        rot, t = f.transform
+        return moved_pose(f.final, rot.T, -rot.T @ t), f.item  # its heel_tracked the pushed pose's, never moved
+
+    def _release(self) -> list[tuple[LegPose, object]]:
+        out: list[tuple[LegPose, object]] = []
+        bridged: list[LegPose] | None = None  # bridge_hidden_legs over the frames kept, at most once a push
+        while self._next < len(self._frames):
+            f = self._frames[self._next]
+            for leg in (0, 1):
+                if not f.hidden[leg] or f.decided[leg]:
+                    continue
+                stretch = self._resolve(self._next, leg)
+                if stretch is None:
+                    return out
+                if stretch is False:
+                    continue
+                a, hi = stretch
+                if bridged is None:
+                    bridged = bridge_hidden_legs([h.walker for h in self._frames], hide_below=self.hide_below,
+                                                 max_gap_s=self.max_gap_s, fit_frames=self.fit_frames,
+                                                 floor_frame=True)
+                idx = np.array(BRIDGE_POINTS)
+                for m in range(a, hi):
+                    h = self._frames[m]
+                    h.final = _with_leg_points(h.final if h.final is not None else h.walker, leg,
+                                               bridged[m].points[leg, idx])
+                    h.decided[leg] = True
+            out.append(self._emit(f))
+            self._next += 1
+        return out
+
+    def _resolve(self, i: int, leg: int) -> tuple[int, int] | bool | None:
+        """The stretch in which ``leg`` is hidden at frame ``i``: ``(first hidden frame, first frame after)`` when it
+        is bridged, False when it is left as tracked, None while undecided (as :func:`bridge_hidden_legs` decides)."""
+        fr, k = self._frames, self.fit_frames
+        a = i
+        while a > 0 and fr[a - 1].hidden[leg]:
+            a -= 1
+        lo = a - 1
+        if lo - k < 0 or not all(fr[j].seen[leg] for j in range(lo - k, lo + 1)):
+            return False
+        t_lo = float(fr[lo].pose.stamp)
+        hi = i + 1
+        while hi < len(fr) and fr[hi].hidden[leg]:
+            hi += 1
+        if hi == len(fr):  # hidden to the newest frame
+            return False if float(fr[-1].pose.stamp) - t_lo > self.max_gap_s else None
+        if not float(fr[hi].pose.stamp) - t_lo <= self.max_gap_s:
+            return False
+        if not all(fr[j].seen[leg] for j in range(hi, min(hi + k, len(fr) - 1) + 1)):
+            return False
+        return None if hi + k >= len(fr) else (a, hi)
+
+    def _trim(self) -> None:
+        """Drop released frames older than ``history_s`` before the first frame held (or the newest one).  The first
+        frame held is its stretch's first (the frames of a stretch come out together, or each left as tracked for a
+        reason that holds for the whole stretch), so the ``fit_frames`` seen before it are
+        ``fit_frames`` / rate before it: kept, as ``history_s`` >= ``max_gap_s``."""
+        ref = float(self._frames[min(self._next, len(self._frames) - 1)].pose.stamp)
+        drop = 0
+        while drop < self._next and float(self._frames[drop].pose.stamp) < ref - self.history_s:
+            drop += 1
+        if drop:
+            del self._frames[:drop]
+            self._next -= drop
+
+
 def butter2(cutoff_hz: float, fs: float) -> tuple[FloatArray, FloatArray]:
     """Second-order Butterworth low-pass ``(b, a)`` at ``cutoff_hz`` for samples at ``fs`` (bilinear transform,
     pre-warped: what ``scipy.signal.butter(2, cutoff_hz / (fs / 2))`` gives, without importing ``scipy.signal``,

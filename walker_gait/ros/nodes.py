@@ -354,12 +354,20 @@ class LegTrackerNode(WalkerNode):
         except ValueError as exc:
             raise ParameterError(f"leg_tracker.{exc}") from None
         self.pelvis = LivePelvis(mounting=self.mounting, window_s=window, leg_length_m=leg) if window > 0 else None
+        bridge_s = float(self.declare_parameter("bridge_hidden_s", 1.0).value)
+        if not (math.isfinite(bridge_s) and bridge_s >= 0):
+            raise ParameterError(f"leg_tracker.bridge_hidden_s must be a finite number >= 0 (0 = off), got {bridge_s}")
+        from walker_gait.core.smoothing import LiveBridge
+
+        # leg_track_bridged: leg_track with each hidden foot's stretch bridged once it is seen again (held till then)
+        self.bridge = LiveBridge(hide_below=self.config.hide_below, max_gap_s=bridge_s) if bridge_s > 0 else None
         self.tracker: Any = None
         self.intrinsics: Any = None
         self.sync = StampSync(("points", "mask", "floor"), stand_in=("floor",))
         self.pub_joints = self.raw_publisher(M.JOINT_STATE, "joint_states", STREAM)
         self.pub_track = self.raw_publisher(M.LEG_TRACK, "leg_track", STREAM)
         self.pub_markers = self.raw_publisher(M.MARKER_ARRAY, "leg_markers", STREAM)
+        self.pub_bridged = self.raw_publisher(M.LEG_TRACK, "leg_track_bridged", STREAM) if self.bridge else None
         self.raw_subscription(M.CAMERA_INFO, "depth/camera_info", self.on_info, SENSOR_IN)
         # the queue (default 10 frames = 1/3 s at 30 Hz) absorbs bursts in which the tracker is slower than the
         # camera, so no frame is skipped while it keeps up on average; latency stays bounded by depth / rate
@@ -402,6 +410,8 @@ class LegTrackerNode(WalkerNode):
                                   measure_shoes=self.pelvis is not None)
         if self.pelvis is not None:
             self.pelvis.reset()
+        if self.bridge is not None:  # a new track: what is held comes out as tracked
+            self._publish_bridged(self.bridge.flush())
         while self._waiting:  # frames that were complete before the first CameraInfo
             with self.guard("leg_tracker"):
                 self.track(self._waiting.popleft())
@@ -442,10 +452,18 @@ class LegTrackerNode(WalkerNode):
         self.pub_joints(M.make_joint_state(pose, header))
         self.pub_track(M.make_leg_track(pose, header, particle_count=int(getattr(self.config, "n_particles", 0))))
         self.pub_markers(M.make_markers(pose, header))
+        if self.bridge is not None:
+            self._publish_bridged(self.bridge.push(pose, floor, header))
         self.frames_ok += 1
         self.frame_timed(M.stamp_to_s(header.stamp), time.perf_counter() - t0,
                          advice="fewer particles (n_particles) or a lighter preset keep up; input_depth 1-2 tracks the "
                                 "newest frames with less latency")
+
+    def _publish_bridged(self, released: list[tuple[Any, Any]]) -> None:
+        assert self.pub_bridged is not None
+        particles = int(getattr(self.config, "n_particles", 0))
+        for pose, header in released:
+            self.pub_bridged(M.make_leg_track(pose, header, particle_count=particles))
 
 
 # -------------------------------------------------------------------------------- gait_analyzer
