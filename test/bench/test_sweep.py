@@ -295,6 +295,19 @@ def test_reanalyse_runs_the_gait_analyzer_on_the_kept_poses(tmp_path: Path, caps
     np.testing.assert_allclose(sweep.reanalyse([two], merge={})[0].est, lowpassed)
     assert not np.allclose(lowpassed, pts + [0.01, 0.0, 0.0])
     assert len(far.pairs) == len(sim.steps)
+    # the oracle of a two-pass run substitutes into the track its analyzer read (the passes merged): with both passes
+    # 3 cm off sideways every footprint moves alike, so the feet substituted (the others off) change the widths;
+    # nothing substituted, the merged track's own steps
+    off = replace(run, passes=(shifted(0.03, 0.0), shifted(0.03, 0.0)))
+    lopsided = [replace(p, points=p.points + np.where(np.arange(2)[:, None, None] == 0, 0.03, 0.0) * [1, 0, 0])
+                for p in sim.poses]
+    skewed = replace(run, passes=(PassTrack(poses=lopsided, scores=np.zeros(n), tracker_ms=np.zeros(n),
+                                            scoring_ms=np.zeros(n)),) * 2)
+    assert sweep.oracle([off], ())["step_width_mae_cm"] == pytest.approx(
+        sweep.oracle([run], ())["step_width_mae_cm"], abs=1e-9)
+    wide = sweep.oracle([skewed], ())
+    exact = sweep.oracle([skewed], (0, 1, 2, 3, 4))
+    assert wide["step_width_mae_cm"] > 2.0 and exact["step_width_mae_cm"] < 0.5
     with pytest.raises(ValueError, match="no tracking passes"):
         sweep.reanalyse([run], merge={})
     (tmp_path / "two").mkdir()

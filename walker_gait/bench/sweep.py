@@ -509,20 +509,26 @@ def oracle(runs: list[SessionRun], points: tuple[int, ...], gait: GaitConfig | N
     The analyzer gets the true floor and every frame with an estimate at full confidence, so ``points=()``
     differs a little from the pipeline's own steps (estimated floor, tracker confidences).  The tracker's foot
     visibility goes with the poses (the analyzer does not trust a hidden trailing toe) unless the toes are
-    substituted (an exact toe counts as in view)."""
+    substituted (an exact toe counts as in view).  A two-pass run's analyzer read its passes merged (its stored poses
+    are the reported ones, bridged and low-passed): the substitution goes into that merged track, which is then
+    analysed as a one-pass run's (no check against the passes, which know nothing of the true points)."""
+    from walker_gait.core.smoothing import merge_passes
+
     exact_toe = TOE in points
     subs = []
     for r in runs:
+        track = merge_passes(r.passes).poses if len(r.passes) >= 2 else r.poses
+        est = np.stack([tp.points for tp in track]) if track else r.est
         poses = []
         for i in range(len(r.stamps)):
-            p = r.est[i].copy()
+            p = np.array(est[i], dtype=np.float64, copy=True)
             p[:, list(points)] = r.truth[i][:, list(points)]
             ok = bool(np.all(np.isfinite(p)))
-            vis = None if exact_toe or not r.poses else r.poses[i].visibility
+            vis = None if exact_toe or not track else track[i].visibility
             poses.append(LegPose(stamp=float(r.stamps[i]), points=p if ok else np.full((2, 5, 3), np.nan),
                                  status=TrackStatus.TRACKING if ok else TrackStatus.NO_USER, confidence=1.0 if ok else 0.0,
                                  visibility=vis))
-        subs.append(replace(r, poses=poses, floors=[r.true_floor] * len(poses)))
+        subs.append(replace(r, poses=poses, floors=[r.true_floor] * len(poses), passes=()))
     subs = reanalyse(subs, gait)
     out = {"matched_steps": float(sum(len(s.pairs) for s in subs))}
     out.update(_step_errors(subs))
