@@ -74,7 +74,9 @@ NODE_PARAMS: dict[str, list[tuple[str, Any, str]]] = {
                                  "floor carries it, else cubic curves between both ends: "
                                  "`walker_gait.core.smoothing.LiveBridge`); its frames are held until then, every "
                                  "frame published once, in order (latency 0 while both feet are seen, up to this "
-                                 "long + 6 frames for a hidden foot's frames); 0 = not published"),
+                                 "long + 6 frames for a hidden foot's frames; frames still held when the input pauses "
+                                 "for longer than this, wall clock, come out as tracked; the number held is "
+                                 "`bridge_held` on /diagnostics); 0 = not published"),
         ("input_depth", 10, "queue depth of the three synchronised inputs: it absorbs bursts in which the tracker "
                             "is slower than the camera; small = track the newest frames (low latency, frames "
                             "skipped in every burst), large = work through the queued frames (none skipped, more "

@@ -734,15 +734,16 @@ def test_leg_tracker_leg_length_reaches_the_placement_and_is_validated(rclpy_con
 def test_leg_tracker_publishes_hidden_feet_bridged_on_a_track_of_its_own(rclpy_context: None) -> None:
     """``leg_track_bridged``: ``leg_track``'s frames, each once and in order, those while a foot is hidden held until
     it is seen again and then published bridged (here a foot moving steadily, held by the tracker while hidden:
-    bridged onto its real line); the frames around as published on ``leg_track``.  ``bridge_hidden_s`` 0: no such
-    topic; a negative value is refused."""
+    bridged onto its real line); the frames around as published on ``leg_track``; frames still held when the input
+    pauses for longer than ``bridge_hidden_s`` published as tracked (and counted on /diagnostics while held).
+    ``bridge_hidden_s`` 0: no such topic; a negative value is refused."""
     from walker_gait.bench.tracker import KINECT
     from walker_gait.config import ParameterError
     from walker_gait.core.smoothing import BRIDGE_FIT_FRAMES
     from walker_gait.ros.nodes import LegTrackerNode
 
     rot, t = STANDING_FLOOR.walker_transform()
-    n, hidden = 30, range(10, 18)
+    n, hidden = 30, [*range(10, 18), *range(27, 30)]  # the second stretch lasts to the end: held
     truth, poses = [], []
     for i in range(n):  # walker frame: both legs' points 10-60 cm up, moving steadily along x; the left foot hides
         pts = np.zeros((2, 5, 3))
@@ -773,7 +774,12 @@ def test_leg_tracker_publishes_hidden_feet_bridged_on_a_track_of_its_own(rclpy_c
         node.tracker.update = lambda **kw: next(given)
         for i in range(n):
             send_foreground(node, 1.0 + i / 30)
-        assert len(tracks) == n
+        assert len(tracks) == n and len(bridged) == 27 and node.diagnostic_values() == {"bridge_held": 3}
+        node.release_stale()  # the input has not paused yet
+        assert len(bridged) == 27
+        node._last_frame_wall -= 2.0  # ... now it has, for longer than bridge_hidden_s: what is held comes out
+        node.release_stale()
+        assert len(bridged) == n and node.diagnostic_values() == {"bridge_held": 0}
         stamps = [M.stamp_to_ns(m.header.stamp) for m in tracks]
         assert [M.stamp_to_ns(m.header.stamp) for _, m in bridged] == stamps
         k = BRIDGE_FIT_FRAMES
@@ -784,7 +790,7 @@ def test_leg_tracker_publishes_hidden_feet_bridged_on_a_track_of_its_own(rclpy_c
             heel = np.array([[p.x, p.y, p.z] for p in msg.heel])
             sent = np.array([[p.x, p.y, p.z] for p in tracks[i].heel])
             want = STANDING_FLOOR.to_walker(heel)
-            if i in hidden:
+            if 10 <= i < 18:
                 assert np.abs(want[0] - truth[i][0, 3]).max() < 1e-5  # float32 messages
                 assert np.abs(STANDING_FLOOR.to_walker(sent)[0] - truth[i][0, 3]).max() > 0.005
             else:

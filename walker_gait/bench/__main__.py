@@ -282,7 +282,8 @@ def section_process_and_live(seed: int, live: bool) -> list[str]:
                       f"{len(lr.steps)} steps (process: {len(res.steps)})"]
             bl = lr.bridged_latencies_ms
             lines += [f"* `leg_track_bridged` in the same run: {len(lr.bridged_stamps_ns)} LegTrack out (frames still "
-                      f"held when the replay ended are never published); latency image→LegTrack median "
+                      f"held when the replay ended come out once the input has paused for `bridge_hidden_s`); latency "
+                      f"image→LegTrack median "
                       f"{f(float(np.median(bl)) if bl else math.nan, 0)} ms, p95 "
                       f"{f(float(np.percentile(bl, 95)) if bl else math.nan, 0)} ms, largest "
                       f"{f(max(bl) if bl else math.nan, 0)} ms (a hidden foot's frames wait for it to be seen again)"]

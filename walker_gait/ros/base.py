@@ -213,12 +213,17 @@ class WalkerNode(Node):
         if n is not None:
             self.get_logger().warning(f"{detail} ({kind} stood in {n}x; counted on /diagnostics)")
 
+    def diagnostic_values(self) -> dict[str, Any]:
+        """A node's own key-values for /diagnostics (none by default)."""
+        return {}
+
     def _publish_diagnostics(self) -> None:
         level = 0 if not self._problems else 1
         message = "ok" if not self._problems else f"{sum(self._problems.values())} frame(s) skipped"
         values: dict[str, Any] = {"frames_ok": self.frames_ok}
         values.update({f"skipped.{k}": v for k, v in sorted(self._problems.items())})
         values.update({f"stood_in.{k}": v for k, v in sorted(self._stand_ins.items())})
+        values.update(self.diagnostic_values())
         busy = self.busy_monitor
         if busy is not None and math.isfinite(busy.work_ms):  # frames timed
             values.update({"busy_pct": round(100 * busy.busy, 1) if math.isfinite(busy.busy) else "n/a",

@@ -368,6 +368,11 @@ class LegTrackerNode(WalkerNode):
         self.pub_track = self.raw_publisher(M.LEG_TRACK, "leg_track", STREAM)
         self.pub_markers = self.raw_publisher(M.MARKER_ARRAY, "leg_markers", STREAM)
         self.pub_bridged = self.raw_publisher(M.LEG_TRACK, "leg_track_bridged", STREAM) if self.bridge else None
+        # frames held for a hidden foot come out as tracked once the input has paused longer than the longest bridge
+        # (the stream stopped: no frame will decide them)
+        self._last_frame_wall = time.monotonic()
+        if self.bridge is not None:
+            self._bridge_timer = self.create_timer(0.25, self.release_stale)
         self.raw_subscription(M.CAMERA_INFO, "depth/camera_info", self.on_info, SENSOR_IN)
         # the queue (default 10 frames = 1/3 s at 30 Hz) absorbs bursts in which the tracker is slower than the
         # camera, so no frame is skipped while it keeps up on average; latency stays bounded by depth / rate
@@ -454,10 +459,22 @@ class LegTrackerNode(WalkerNode):
         self.pub_markers(M.make_markers(pose, header))
         if self.bridge is not None:
             self._publish_bridged(self.bridge.push(pose, floor, header))
+        self._last_frame_wall = time.monotonic()
         self.frames_ok += 1
         self.frame_timed(M.stamp_to_s(header.stamp), time.perf_counter() - t0,
                          advice="fewer particles (n_particles) or a lighter preset keep up; input_depth 1-2 tracks the "
                                 "newest frames with less latency")
+
+    def release_stale(self) -> None:
+        """``leg_track_bridged``'s held frames published as tracked once no frame has come for ``bridge_hidden_s``
+        (wall clock)."""
+        if self.bridge is not None and self.bridge.held and \
+                time.monotonic() - self._last_frame_wall > self.bridge.max_gap_s:
+            with self.guard("leg_tracker"):
+                self._publish_bridged(self.bridge.flush())
+
+    def diagnostic_values(self) -> dict[str, Any]:
+        return {} if self.bridge is None else {"bridge_held": self.bridge.held}
 
     def _publish_bridged(self, released: list[tuple[Any, Any]]) -> None:
         assert self.pub_bridged is not None
