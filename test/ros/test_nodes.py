@@ -731,7 +731,7 @@ def test_leg_tracker_leg_length_reaches_the_placement_and_is_validated(rclpy_con
         LegTrackerNode(parameter_overrides=[rclpy.parameter.Parameter("leg_length_m", value=88.0)])
 
 
-def test_leg_tracker_publishes_hidden_feet_bridged_on_a_track_of_its_own(rclpy_context: None) -> None:
+def test_leg_tracker_publishes_hidden_feet_bridged_on_a_track_of_its_own(rclpy_context: None, monkeypatch: Any) -> None:
     """``leg_track_bridged``: ``leg_track``'s frames, each once and in order, those while a foot is hidden held until
     it is seen again and then published bridged (here a foot moving steadily, held by the tracker while hidden:
     bridged onto its real line); the frames around as published on ``leg_track``; frames still held when the input
@@ -800,6 +800,22 @@ def test_leg_tracker_publishes_hidden_feet_bridged_on_a_track_of_its_own(rclpy_c
     node = LegTrackerNode(parameter_overrides=[rclpy.parameter.Parameter("bridge_hidden_s", value=0.0)])
     try:
         assert node.bridge is None and node.pub_bridged is None
+    finally:
+        node.destroy_node()
+    # without a subscriber no message is built; with one, each released frame is published
+    from walker_gait.ros.base import rclpy_type
+
+    node = LegTrackerNode()
+    built: list[Any] = []
+    make = M.make_leg_track
+    monkeypatch.setattr(M, "make_leg_track", lambda *a, **kw: built.append(1) or make(*a, **kw))
+    try:
+        released = [(camera[0], M.make_header(1.0, "cam"))]
+        node._publish_bridged(released)
+        assert built == []
+        node.create_subscription(rclpy_type(M.LEG_TRACK), "leg_track_bridged", lambda m: None, 10)
+        node._publish_bridged(released)
+        assert built == [1]
     finally:
         node.destroy_node()
     with pytest.raises(ParameterError, match="leg_tracker.bridge_hidden_s"):

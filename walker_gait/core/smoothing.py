@@ -630,7 +630,7 @@ class LiveBridge:
     """:func:`bridge_hidden_legs` frame by frame, for the live graph: each stretch in which a foot is hidden is
     bridged as soon as it can be, and every frame is released in order, unchanged or bridged.
 
-    A frame in which neither foot is hidden (:data:`_feet_hidden`, ``hide_below`` as the tracker's) comes out at once
+    A frame in which neither foot is hidden (:func:`_feet_hidden`, ``hide_below`` as the tracker's) comes out at once
     when nothing before it is held.  From the first frame in which a foot is hidden the frames are held until that
     stretch is decided: it is bridged once the foot has been seen again for ``fit_frames`` + 1 frames (about 0.17 s at
     30 Hz) within ``max_gap_s`` of its last frame seen before it, with :func:`bridge_hidden_legs` (``floor_frame``: in

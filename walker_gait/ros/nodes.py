@@ -478,6 +478,9 @@ class LegTrackerNode(WalkerNode):
 
     def _publish_bridged(self, released: list[tuple[Any, Any]]) -> None:
         assert self.pub_bridged is not None
+        publisher = getattr(self.pub_bridged, "publisher", None)
+        if not released or (publisher is not None and publisher.get_subscription_count() == 0):
+            return  # nobody listens: the frames pass through the bridge (its state), no message is built
         particles = int(getattr(self.config, "n_particles", 0))
         for pose, header in released:
             self.pub_bridged(M.make_leg_track(pose, header, particle_count=particles))
