@@ -31,7 +31,7 @@ def short_session(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 
 def _options(prefetch: int, **kwargs: Any) -> PipelineOptions:
-    return PipelineOptions(seed=4, prefetch=prefetch, write_mcap=False, write_report=False, **kwargs)
+    return PipelineOptions(**{"seed": 4, "prefetch": prefetch, "write_mcap": False, "write_report": False, **kwargs})
 
 
 def test_prefetch_worker_gives_identical_results(short_session: Path, tmp_path: Path) -> None:
@@ -354,9 +354,10 @@ def test_two_passes_merge_the_forward_pass_with_a_backward_one(short_session: Pa
     from walker_gait.core.smoothing import wait_for_both_feet
 
     # the one-pass run reports the tracker's poses as tracked (no pelvis placed), to compare with the kept passes
-    one = process_recording(short_session, tmp_path / "one", options=_options(0, passes="forward",
+    one = process_recording(short_session, tmp_path / "one", options=_options(0, passes="forward", write_mcap=True,
                                                                              report_pelvis_window_s=0.0), progress=False)
-    two = process_recording(short_session, tmp_path / "two", options=_options(0, passes="both"), progress=False)
+    two = process_recording(short_session, tmp_path / "two", options=_options(0, passes="both", write_mcap=True),
+                            progress=False)
     assert len(two.poses) == len(one.poses) == 75
     assert [p.stamp for p in two.poses] == [p.stamp for p in one.poses]
     meta_one = json.loads((tmp_path / "one" / "summary.json").read_text())["metadata"]
@@ -366,6 +367,23 @@ def test_two_passes_merge_the_forward_pass_with_a_backward_one(short_session: Pa
     assert "tracker_backward" in meta_two["mean_stage_ms"] and "tracker_backward" not in meta_one["mean_stage_ms"]
     assert two.passes == "both" and two.frames_from_backward_pass == meta_two["frames_from_backward_pass"]
     assert "backward" in two.describe() and "one pass" in one.describe()
+    # the one pass's tracked.mcap also carries what the live leg_tracker publishes on leg_track_bridged: every frame,
+    # as leg_track where no foot is hidden; the two-pass output has its hidden feet bridged anyway
+    from rosbags.highlevel import AnyReader
+
+    def read(path: Path) -> dict[str, list[Any]]:
+        with AnyReader([path]) as reader:
+            return {c.topic: [reader.deserialize(raw, c.msgtype) for _, _, raw in reader.messages(connections=[c])]
+                    for c in reader.connections}
+
+    got = read(tmp_path / "one" / "tracked.mcap")
+    track, bridged = got["/leg_track"], got["/leg_track_bridged"]
+    assert [m.header.stamp for m in bridged] == [m.header.stamp for m in track] and len(track) == 75
+    hide = _options(0).tracker.hide_below
+    seen = [i for i, m in enumerate(track) if min(m.foot_visibility) >= hide]
+    assert seen and all([(p.x, p.y, p.z) for p in bridged[i].heel] == [(p.x, p.y, p.z) for p in track[i].heel]
+                        for i in seen)
+    assert "/leg_track_bridged" not in read(tmp_path / "two" / "tracked.mcap")
 
     proc, prep, frames = _forward_pass_and_frames(short_session)
     fin = proc.finish()

@@ -1181,8 +1181,14 @@ def process_recording(path: Path, out_dir: Path, *, options: PipelineOptions | N
     write_summary_json(files[-1], summary, metadata=metadata)
     if options.write_mcap:
         files.append(out_dir / "tracked.mcap")
+        bridged = None
+        if options.passes == "forward" and options.bridge_hidden_s > 0:  # the live leg_tracker's leg_track_bridged
+            from walker_gait.core.smoothing import live_bridged
+
+            bridged = live_bridged([r.pose for _, _, r in tracked], [r.floor for _, _, r in tracked],
+                                   hide_below=options.tracker.hide_below, max_gap_s=options.bridge_hidden_s)[0]
         write_tracked_mcap(files[-1], frames=tracked, events=events, steps=steps, summary=summary,
-                           particle_count=int(getattr(options.tracker, "n_particles", 0)))
+                           particle_count=int(getattr(options.tracker, "n_particles", 0)), bridged=bridged)
     if report is not None:
         report()
     return ProcessResult(input=path, out_dir=out_dir, frames=processed, skipped=dict(skipped), steps=steps,
@@ -1193,10 +1199,12 @@ def process_recording(path: Path, out_dir: Path, *, options: PipelineOptions | N
 
 
 def write_tracked_mcap(path: Path, *, frames: list[tuple[int, str, FrameResult]], events: list[GaitEvent],
-                       steps: list[Step], summary: Mapping[str, Any], particle_count: int) -> None:
+                       steps: list[Step], summary: Mapping[str, Any], particle_count: int,
+                       bridged: Sequence[LegPose] | None = None) -> None:
     """The messages the live nodes would publish, as a rosbag2/MCAP (atomic; Foxglove-readable).
 
-    ``frames`` are ``(stamp_ns, frame_id, result)``; ``summary`` uses GaitSummary's field names.
+    ``frames`` are ``(stamp_ns, frame_id, result)``; ``summary`` uses GaitSummary's field names; ``bridged`` (one pose
+    per frame, a one-pass run's: :func:`walker_gait.core.smoothing.live_bridged`) adds ``/leg_track_bridged``.
     """
     from walker_gait import messages as M
     from walker_gait.io.bagwriter import BagWriter
@@ -1206,12 +1214,19 @@ def write_tracked_mcap(path: Path, *, frames: list[tuple[int, str, FrameResult]]
         "/floor_plane": M.FLOOR_PLANE, "/gait_events": M.GAIT_EVENT, "/steps": M.STEP,
         "/gait_summary": M.GAIT_SUMMARY,
     }
+    if bridged is not None:
+        if len(bridged) != len(frames):
+            raise ValueError(f"{len(bridged)} bridged poses for {len(frames)} frames")
+        topics["/leg_track_bridged"] = M.LEG_TRACK
     with BagWriter(path, fmt="mcap", typestore=M.typestore(), overwrite=True) as bag:
         for topic, typename in topics.items():
             bag.add_topic(topic, typename)
         stream: list[tuple[int, str, Any]] = []
-        for stamp_ns, frame_id, res in frames:
+        for k, (stamp_ns, frame_id, res) in enumerate(frames):
             header = M.make_header(M.make_time(stamp_ns, ns=True), frame_id)
+            if bridged is not None:
+                stream.append((stamp_ns, "/leg_track_bridged",
+                               M.make_leg_track(bridged[k], header, particle_count=particle_count)))
             stream.append((stamp_ns, "/joint_states", M.make_joint_state(res.pose, header)))
             stream.append((stamp_ns, "/leg_track", M.make_leg_track(res.pose, header, particle_count=particle_count)))
             stream.append((stamp_ns, "/leg_markers", M.make_markers(res.pose, header)))

@@ -312,19 +312,13 @@ def run_pipeline(session: Any, rendered: Rendered, *, preset: str = "default", c
 
 def live_bridged(run: PipelineRun, *, hide_below: float) -> tuple[list[Any], np.ndarray]:
     """A one-pass run's poses (``passes="forward"``: the live ``leg_track``) as the live ``leg_tracker`` publishes them
-    on ``leg_track_bridged`` (:class:`~walker_gait.core.smoothing.LiveBridge`), and each frame's delay (s: from its own
+    on ``leg_track_bridged`` (:func:`walker_gait.core.smoothing.live_bridged`), and each frame's delay (s: from its own
     stamp to that of the frame that released it; NaN for frames still held at the end)."""
-    from walker_gait.core.smoothing import LiveBridge
+    from walker_gait.core import smoothing
 
-    bridge = LiveBridge(hide_below=hide_below)
-    out: list[Any] = [None] * len(run.poses)
-    delay = np.full(len(run.poses), np.nan)
-    for i, (pose, floor) in enumerate(zip(run.poses, run.floors, strict=True)):
-        for shown, j in bridge.push(pose, floor, i):
-            out[j], delay[j] = shown, float(pose.stamp) - float(run.poses[j].stamp)
-    for shown, j in bridge.flush():
-        out[j] = shown
-    return out, delay
+    out, released = smoothing.live_bridged(run.poses, run.floors, hide_below=hide_below)
+    stamps = np.array([float(p.stamp) for p in run.poses] + [math.nan])
+    return out, stamps[released] - stamps[:-1]
 
 
 def evaluate(session: Any, *, preset: str = "default", cue: str | None = None, seed: int = 0,

@@ -764,6 +764,24 @@ class LiveBridge:
             self._next -= drop
 
 
+def live_bridged(poses: Sequence[LegPose], floors: Sequence[FloorPlane], *, hide_below: float,
+                 max_gap_s: float = BRIDGE_MAX_S) -> tuple[list[LegPose], IntArray]:
+    """A recording's one-pass poses as the live ``leg_tracker`` publishes them on ``leg_track_bridged``: a
+    :class:`LiveBridge` fed them frame by frame (``floors``: one per pose), then flushed.  Also returns, per frame, the
+    index of the frame whose arrival released it (``len(poses)``: held to the end, released by the flush)."""
+    if len(floors) != len(poses):
+        raise ValueError(f"{len(floors)} floors for {len(poses)} poses")
+    bridge = LiveBridge(hide_below=hide_below, max_gap_s=max_gap_s)
+    out: list[LegPose] = list(poses)
+    released = np.full(len(poses), len(poses), dtype=np.intp)
+    for i, (pose, floor) in enumerate(zip(poses, floors)):
+        for shown, j in bridge.push(pose, floor, i):
+            out[int(j)], released[int(j)] = shown, i  # type: ignore[call-overload]
+    for shown, j in bridge.flush():
+        out[int(j)] = shown  # type: ignore[call-overload]
+    return out, released
+
+
 def butter2(cutoff_hz: float, fs: float) -> tuple[FloatArray, FloatArray]:
     """Second-order Butterworth low-pass ``(b, a)`` at ``cutoff_hz`` for samples at ``fs`` (bilinear transform,
     pre-warped: what ``scipy.signal.butter(2, cutoff_hz / (fs / 2))`` gives, without importing ``scipy.signal``,
