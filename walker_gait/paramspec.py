@@ -55,6 +55,8 @@ NODE_PARAMS: dict[str, list[tuple[str, Any, str]]] = {
                                  "solved again so that the tracked knees, ankles, heels and toes stay, the thighs "
                                  "and calves of the track's median lengths so far, each knee moved along its "
                                  "tracked calf to it; the heel of a foot whose shoe the track has shown cleanly "
+                                 "(or that is under a trouser hem, the calves a tube of loose fabric: then the shoe "
+                                 "at least the typical adult's 0.26 m, the hem hides its back) "
                                  "behind its toe at the median foot length so far, at the pitch and heading its "
                                  "shoe shows (the tracker's heels in `leg_track`'s `heel_tracked`, which the gait "
                                  "analyzer reads; `walker_gait.core.pelvis`; 0 = as tracked, the shoes not measured)"),

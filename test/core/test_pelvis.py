@@ -426,6 +426,59 @@ def test_a_track_is_reported_with_one_length_of_each_segment() -> None:
     assert np.abs(got[ok][:, :, [HIP, KNEE]] - live_want[ok][:, :, [HIP, KNEE]]).max() < 0.005
 
 
+def _shod(poses: list[LegPose], *, longer: float, calf_radius: float) -> list[LegPose]:
+    """``poses`` (walker frame) with each heel moved ``longer`` (m) back along its foot (a shoe that much longer) and
+    the calves' proximal radii ``calf_radius`` (a tube of baggy trousers down to a hem beyond ``LOOSE_CALF_RADIUS``)."""
+    out = []
+    for p in poses:
+        pts = np.asarray(p.points, dtype=np.float64) @ FLIP
+        foot = pts[:, HEEL] - pts[:, TOE]
+        pts[:, HEEL] += longer * foot / np.linalg.norm(foot, axis=-1, keepdims=True)
+        radii = np.full((2, 3, 2), 0.05)
+        radii[:, 1, 0] = calf_radius
+        out.append(dataclasses.replace(pv.with_points(p, pts @ FLIP), radii=radii))
+    return out
+
+
+def test_a_shoe_under_a_trouser_hem_is_reported_at_least_the_typical_shoes_length() -> None:
+    """A hem hides the back of the shoe, which the tracker then leaves out of its foot (short, never long): a track
+    whose calves are a tube of loose fabric has its heels placed at least :data:`HEMMED_SHOE_M` behind their toes, a
+    longer tracked shoe is kept, and without a hem the tracked length stands, offline and live (where the heels are
+    placed: a shoe shown cleanly).  The toes and ankles stay the tracker's."""
+    lo, hi = lm.LOOSE_CALF_RADIUS
+    assert pv.hemmed(np.full((30, 2), hi)) and pv.hemmed(np.full(5, 0.5 * (lo + hi) + 1e-3))
+    assert not pv.hemmed(np.full((30, 2), lo)) and not pv.hemmed(np.full(5, 0.5 * (lo + hi) - 1e-3))
+    assert not pv.hemmed(np.full(4, np.nan)) and pv.hemmed(np.array([np.nan, hi, hi]))
+    typical = pv.HEMMED_SHOE_M
+    assert typical is not None and 0.24 < typical < 0.29
+    assert pv.shoe_length(0.20, hem=True) == typical and pv.shoe_length(0.30, hem=True) == 0.30
+    assert pv.shoe_length(0.20, hem=False) == 0.20 and np.isnan(pv.shoe_length(np.nan, hem=True))
+    walk, _ = _walk(n=60)
+    true_len = float(np.median(_lengths(np.stack([p.points for p in walk]) @ FLIP)[1]))
+    for longer, radius, want in ((-0.05, 0.115, typical), (-0.05, 0.06, true_len - 0.05),
+                                 (0.03, 0.115, true_len + 0.03)):
+        tracked = _shod(walk, longer=longer, calf_radius=radius)
+        before = np.stack([p.points for p in tracked]) @ FLIP
+        after = np.stack([p.points for p in pv.place_poses(tracked)]) @ FLIP
+        np.testing.assert_array_equal(after[:, :, [ANKLE, TOE]], before[:, :, [ANKLE, TOE]])
+        np.testing.assert_allclose(_lengths(after)[1], want, atol=1e-9)
+    # live: a shoe shown cleanly (a steady rise of its upper on flat frames) has its heel placed at the tracked
+    # length, from its calibration on; under a hem, never shown cleanly, both heels from the first frame at the
+    # typical shoe's
+    stand = _stand_then_heel_up(tracked_pitch_deg=20.0)
+    shown = [dataclasses.replace(p, shoe_rise=np.full(2, 0.25)) for p in stand]
+    stand_len = float(np.median(_lengths(np.stack([p.points for p in stand]) @ FLIP)[1]))
+    for seq, radius, want in ((stand, 0.115, typical), (shown, 0.06, stand_len - 0.05)):
+        given, out, after = _live(_shod(seq, longer=-0.05, calf_radius=radius))
+        placed = np.array([o.heel_tracked is not None for o in out])
+        assert placed.all() if radius > lo else (placed[pv.SHOE_FLAT_FRAMES:].all() and not placed[0])
+        np.testing.assert_allclose(_lengths(after[placed])[1], want, atol=1e-6)
+        for g, o in zip(given, out):
+            np.testing.assert_array_equal(o.points[:, [ANKLE, TOE]], g.points[:, [ANKLE, TOE]])
+    _, plain, _ = _live(_shod(stand, longer=-0.05, calf_radius=0.06))  # no hem, no shoe shown: as tracked
+    assert all(o.heel_tracked is None for o in plain)
+
+
 def _stand_then_heel_up(*, tracked_pitch_deg: float, n: int = 60, fps: float = 30.0) -> list[LegPose]:
     """Standing with both feet flat for ``n // 2`` frames, then the left heel up by 20 deg (the pelvis over it moved
     back, the knee bent) while the tracker reports that foot pitched only ``tracked_pitch_deg`` heel-up; walker frame.

@@ -23,7 +23,8 @@ so they describe the pose the points show.
 A user's thighs, calves and shoes keep their lengths, but the tracker's lengths are part of its state and wander
 with it from frame to frame (sd 2.4 cm for the shoe within a session, where its error from one session to the next
 is 1.2-1.6 cm): the placement reports each track with one length of each, the median over the track so far
-(:func:`segment_lengths`) for the shoe, the typical adult's for the thigh and the calf, which the camera does not see
+(:func:`segment_lengths`) for the shoe (under a trouser hem, which hides the shoe's back, at least the typical
+adult's: :func:`shoe_length`), the typical adult's for the thigh and the calf, which the camera does not see
 (:data:`TYPICAL_THIGH_CALF_M`), each knee moved along its tracked calf to the calf's length and each heel along its
 tracked foot (from the seen toe) to the shoe's length (live only a heel whose shoe the track has shown cleanly:
 :meth:`LivePelvis.place`).  The gait analysis reads the heels as tracked: live the placed pose keeps them as
@@ -66,6 +67,8 @@ from walker_gait.core.types import ANKLE, HEEL, HIP, KNEE, TOE, FloorPlane, LegP
 FloatArray = NDArray[np.float64]
 
 __all__ = [
+    "HEMMED_SHOE_M",
+    "HEM_LOOSENESS",
     "HIP_HEIGHT_SHARE",
     "LEG_LENGTH_RANGE_M",
     "LivePelvis",
@@ -82,6 +85,7 @@ __all__ = [
     "WALK_SWING_M",
     "check_leg_length",
     "held_points",
+    "hemmed",
     "lean",
     "moved_pose",
     "pelvis_target",
@@ -90,6 +94,7 @@ __all__ = [
     "pose_state",
     "segment_lengths",
     "shoe_heading",
+    "shoe_length",
     "shoe_pitch",
     "support_sample",
     "with_leg_length",
@@ -332,6 +337,41 @@ def check_leg_length(leg_length_m: float | None) -> float | None:
     return float(leg_length_m)
 
 
+HEMMED_SHOE_M: float | None = float(lm.MEAN_SHAPE[L.LEN_FOOT - L.LEN_THIGH])
+"""The shortest shoe (m) reported for a track whose lower legs are loose fabric down to a hem (:func:`hemmed`): the
+hem hides the back of the shoe, which the tracker then leaves out of its foot, so under it the tracked shoe is short
+(on the synthetic sessions' baggy trousers every one of them, by 0.8-5.3 cm), never long; the model's typical adult
+shoe (:data:`~walker_gait.core.leg_model.MEAN_SHAPE`) stands in for a length nothing in view measures, and a longer
+tracked one is kept.  ``None``: the tracked length under a hem too."""
+HEM_LOOSENESS = 0.5
+"""A track is :func:`hemmed` when the median looseness of its calves (0 for a calf, 1 for a straight tube of fabric:
+the model's :func:`~walker_gait.core.leg_model.calf_taper` between ``LOOSE_CALF_RADIUS``) is at least this."""
+
+
+def hemmed(calf_radii: FloatArray) -> bool:
+    """Whether the calves' proximal radii ``calf_radii`` (m, any shape: a track's frames and legs) are loose fabric
+    down to a hem (:data:`HEM_LOOSENESS`); False where none is finite."""
+    r = np.asarray(calf_radii, dtype=np.float64).ravel()
+    r = r[np.isfinite(r)]
+    if not r.size:
+        return False
+    lo, hi = lm.LOOSE_CALF_RADIUS
+    return bool((float(np.median(r)) - lo) / (hi - lo) >= HEM_LOOSENESS)
+
+
+def shoe_length(tracked: float, *, hem: bool) -> float:
+    """The shoe's length (m) reported for a track whose tracked shoe is ``tracked`` long (its median): under a ``hem``
+    at least :data:`HEMMED_SHOE_M`, else as tracked."""
+    if hem and HEMMED_SHOE_M is not None and math.isfinite(tracked):
+        return max(float(tracked), HEMMED_SHOE_M)
+    return float(tracked)
+
+
+def _calf_radii(pose: LegPose) -> FloatArray:
+    """``(2,)``: the pose's calves' proximal radii (m), NaN where it carries none."""
+    return np.full(2, np.nan) if pose.radii is None else np.asarray(pose.radii, dtype=np.float64)[:, 1, 0]
+
+
 def segment_lengths(points: FloatArray) -> FloatArray:
     """``(3,)``: the median thigh (hip to knee), calf (knee to ankle) and foot (heel to toe) length over the frames of
     ``points`` ``(F, 2, 5, 3)`` whose points are all finite, both legs pooled (the model's legs share their lengths);
@@ -557,7 +597,7 @@ def place_poses(poses: Sequence[LegPose], *, mounting: str = "facing_user",
     """The poses (floor-aligned frame, see the module docstring) with each tracked frame's pelvis placed where the
     ankles in a centred window of ``window_s`` put it (:func:`pelvis_target`) and its hips, knees and joint angles
     re-solved with the knees, ankles, heels and toes held (:func:`place_pelvis`), the feet of the track's median
-    length (:func:`segment_lengths`; a track ends at a frame that is ``NO_USER`` or ``SEARCHING``), the thighs and
+    length (:func:`segment_lengths`; under a trouser hem at least the typical shoe's, :func:`shoe_length`; a track ends at a frame that is ``NO_USER`` or ``SEARCHING``), the thighs and
     calves the typical adult's (:data:`TYPICAL_THIGH_CALF_M`), each knee moved along its tracked calf
     and each heel along its tracked foot to them (:func:`with_lengths`); with a measured ``leg_length_m`` the thighs
     and calves of that length (:func:`with_leg_length`).  Frames that are neither ``TRACKING`` nor ``DEGRADED`` or
@@ -592,8 +632,11 @@ def place_poses(poses: Sequence[LegPose], *, mounting: str = "facing_user",
 
     rise = np.stack([_shoe_measure(out[i].shoe_rise) for i in idx])
     turn = np.stack([_shoe_measure(out[i].shoe_turn) for i in idx])
+    calves = np.stack([_calf_radii(out[i]) for i in idx])
     for t in np.unique(track):
-        lengths[track == t] = segment_lengths(body[track == t])
+        seg = segment_lengths(body[track == t])
+        seg[2] = shoe_length(seg[2], hem=hemmed(calves[track == t]))
+        lengths[track == t] = seg
         pitch[track == t] = shoe_pitch(body[track == t], rise[track == t])
         heading[track == t] = shoe_heading(body[track == t], turn[track == t])
     new, placed = _solve(body[rows], np.stack([out[idx[k]].angles for k in rows]), np.stack(targets), leg_length_m,
@@ -632,7 +675,7 @@ class LivePelvis:
     straight line fitted to it against time, read at the newest frame, so a user who walks in or drifts towards the
     walker is not left behind by half a window) with the lean of the feet's swing and their heading in that window
     (:func:`pelvis_target`), the same re-solve with the feet of the median length over the track's frames so far (at
-    most :data:`LIVE_LENGTHS_FRAMES`) and the thighs and calves as :func:`place_poses` has them, and the heels placed
+    most :data:`LIVE_LENGTHS_FRAMES`; under a hem at least the typical shoe's, :func:`shoe_length`) and the thighs and calves as :func:`place_poses` has them, and the heels placed
     as :func:`place_poses` places them, causally (:meth:`place`).  A frame without a track, a floor or time that
     runs backwards starts the history afresh; a pose the tracker held (the same points and angles as the last one
     placed: a blanked view) is held as placed.  ``leg_length_m`` as :func:`place_poses`'s."""
@@ -646,6 +689,7 @@ class LivePelvis:
         self.window_s = float(window_s)
         self._history: deque[tuple[float, FloatArray]] = deque()
         self._lengths = np.zeros((LIVE_LENGTHS_FRAMES, 2, 3))  # a ring of the frames' (thigh, calf, foot) per leg
+        self._calves = np.zeros((LIVE_LENGTHS_FRAMES, 2))  # and of their calves' proximal radii (NaN: none given)
         self._n_lengths = 0  # frames in it, this track
         self._shoes = (_live_shoe(), _live_shoe())
         self._last: tuple[LegPose, LegPose] | None = None  # the last pose placed, as given and as placed
@@ -702,9 +746,11 @@ class LivePelvis:
         heading steady as :func:`shoe_heading` asks, over at least :data:`SHOE_FLAT_FRAMES` flat frames) has its heel
         placed behind its toe at the track's median foot length so far, at the pitch its shoe shows and, on flat
         frames and the heel rise after them, along the heading its shoe shows; the pose's shoe measures
-        (``shoe_rise``, ``shoe_turn``) are what shows it.  Other heels stay the tracker's: under a trouser hem the
-        tracked shoe is short, and a median of it keeps that where the frames that see the heel do not (on the
-        synthetic sessions' baggy trousers the heels were 0.5 cm worse placed; DEVELOPERS.md, sixty-first session).
+        (``shoe_rise``, ``shoe_turn``) are what shows it.  A track whose calves are a tube of loose fabric down to a
+        hem (:func:`hemmed`: a hem hides the shoe's back, so it is never shown cleanly) has both heels placed, along
+        the tracked feet, at :func:`shoe_length`'s length: at least the typical shoe's, not the tracker's short one
+        (at the tracked median the heels under baggy trousers were 0.5 cm worse placed, DEVELOPERS.md, sixty-first
+        session; at this length 0.3-0.7 cm better, seventy-first).  Other heels stay the tracker's.
         The toes and ankles stay the tracker's bit for bit, and a pose whose heels moved keeps the tracker's as
         ``heel_tracked`` (what the gait analysis reads, :meth:`LegPose.as_tracked`)."""
         if not _placeable(pose) or not (floor.valid and np.all(np.isfinite(floor.normal))
@@ -737,9 +783,15 @@ class LivePelvis:
         body = np.asarray(walker.points, dtype=np.float64) @ self._flip.T
         self._lengths[self._n_lengths % LIVE_LENGTHS_FRAMES] = np.linalg.norm(
             body[:, [HIP, KNEE, TOE]] - body[:, [KNEE, ANKLE, HEEL]], axis=-1)
+        self._calves[self._n_lengths % LIVE_LENGTHS_FRAMES] = _calf_radii(pose)
         self._n_lengths += 1
-        lengths = np.median(self._lengths[: min(self._n_lengths, LIVE_LENGTHS_FRAMES)].reshape(-1, 3), axis=0)
+        n = min(self._n_lengths, LIVE_LENGTHS_FRAMES)
+        lengths = np.median(self._lengths[:n].reshape(-1, 3), axis=0)
+        hem = hemmed(self._calves[:n])
+        lengths[2] = shoe_length(lengths[2], hem=hem)
         pitch, heading, clean = self._shoe_frame(body, _shoe_measure(pose.shoe_rise), _shoe_measure(pose.shoe_turn))
+        if hem:  # a shoe under a hem is never shown cleanly, and its length is not the tracker's short one: placed
+            clean[:] = True
         if not clean.any():
             lengths[2] = np.nan  # every heel as tracked
         new, placed = _solve(body[None], np.asarray(pose.angles)[None], target[None], self.leg_length_m,
