@@ -454,6 +454,7 @@ def test_two_passes_merge_the_forward_pass_with_a_backward_one(short_session: Pa
     np.testing.assert_allclose([lengths[k] for k in ("thigh", "calf", "foot")], want, atol=5e-4)
     assert lengths["leg"] == pytest.approx(want[0] + want[1] + ANKLE_HEIGHT * want[2], abs=5e-4)
     assert 0.3 < lengths["thigh"] < 0.55 and 0.2 < lengths["foot"] < 0.33
+    assert lengths["foot_under_hem"] is False  # the sample's trousers fit
     assert two.summary["mean_confidence"] == pytest.approx(np.mean([s.confidence for s in two.steps]))
 
 
@@ -633,3 +634,25 @@ def test_a_forked_worker_leaves_the_parents_garbage_to_the_parent(tmp_path: Path
         gc.enable()
     gc.collect()
     assert log.read_text().split() == [str(os.getpid())]
+
+
+def test_the_reported_lengths_say_whether_the_shoes_were_under_a_trouser_hem() -> None:
+    """``summary.json``'s ``reported_segment_lengths_m`` flags a session whose calves were a tube of loose fabric down
+    to a hem (its shoes reported at least the typical adult's, ``core.pelvis.shoe_length``), and the report says so
+    next to the shoe's length."""
+    from walker_gait.core import leg_model as lm
+    from walker_gait.core.types import LegPose
+    from walker_gait.pipeline import _reported_lengths
+    from walker_gait.report import _metadata_table
+
+    pts = lm.forward_kinematics(lm.neutral_state(right_hip_xy=(0.0, -0.09))).points[0]
+    for calf, hem in ((0.115, True), (0.06, False)):
+        radii = np.full((2, 3, 2), 0.05)
+        radii[:, 1, 0] = calf
+        poses = [LegPose(stamp=0.1 * i, points=pts, radii=radii) for i in range(5)] + [LegPose.no_user(0.5)]
+        lengths = _reported_lengths(poses)
+        assert lengths is not None and lengths["foot_under_hem"] is hem
+        assert lengths["foot"] == pytest.approx(float(np.linalg.norm(pts[0, 4] - pts[0, 3])), abs=5e-4)
+        row = _metadata_table({"reported_segment_lengths_m": lengths}, [])
+        assert ("under a trouser hem" in row) is hem
+    assert _reported_lengths([LegPose.no_user(0.0)]) is None

@@ -666,20 +666,23 @@ class ProcessResult:
         return "\n".join(lines)
 
 
-def _reported_lengths(poses: Sequence[LegPose]) -> dict[str, float] | None:
-    """The median thigh, calf and foot (heel to toe) length of the reported poses (m, to the mm) and the standing hip
-    height they make (``leg``: thigh + calf + the model's ankle height), which sets the reported hips' height;
-    ``None`` without a pose."""
+def _reported_lengths(poses: Sequence[LegPose]) -> dict[str, Any] | None:
+    """The median thigh, calf and foot (heel to toe) length of the reported poses (m, to the mm), the standing hip
+    height they make (``leg``: thigh + calf + the model's ankle height), which sets the reported hips' height, and
+    whether the calves were a tube of loose fabric down to a hem (``foot_under_hem``: the shoe's back hidden, its
+    length then at least the typical adult's, :func:`walker_gait.core.pelvis.shoe_length`); ``None`` without a pose."""
     from walker_gait.core.leg_model import ANKLE_HEIGHT
-    from walker_gait.core.pelvis import segment_lengths
+    from walker_gait.core.pelvis import hemmed, segment_lengths
 
     if not poses:
         return None
     thigh, calf, foot = (float(v) for v in segment_lengths(np.stack([p.points for p in poses])))
     if not math.isfinite(thigh):  # no pose with all its points
         return None
-    return {k: round(v, 3) for k, v in
-            (("thigh", thigh), ("calf", calf), ("foot", foot), ("leg", thigh + calf + ANKLE_HEIGHT * foot))}
+    out: dict[str, Any] = {k: round(v, 3) for k, v in
+                           (("thigh", thigh), ("calf", calf), ("foot", foot), ("leg", thigh + calf + ANKLE_HEIGHT * foot))}
+    out["foot_under_hem"] = hemmed(np.array([p.radii[:, 1, 0] for p in poses if p.radii is not None]))
+    return out
 
 
 def _summary_dict(analyzer_summary: Any) -> dict[str, Any]:

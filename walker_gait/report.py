@@ -679,8 +679,9 @@ def _metadata_table(metadata: Mapping[str, Any], extra_rows: Sequence[tuple[str,
         if key == "processing_time_s":
             rows.append((label, _fmt(value, 1)))
         elif key == "reported_segment_lengths_m" and isinstance(value, Mapping):
+            hem = " (under a trouser hem: at least the typical adult's)" if value.get("foot_under_hem") else ""
             rows.append((label, ", ".join(_fmt(value.get(k), 3) for k in ("thigh", "calf", "foot"))
-                         + f"; {_fmt(value.get('leg'), 3)}"))
+                         + f"{hem}; {_fmt(value.get('leg'), 3)}"))
         elif value is None:
             rows.append((label, "—"))
         else:
