@@ -650,9 +650,11 @@ def test_the_reported_lengths_say_whether_the_shoes_were_under_a_trouser_hem() -
         radii = np.full((2, 3, 2), 0.05)
         radii[:, 1, 0] = calf
         poses = [LegPose(stamp=0.1 * i, points=pts, radii=radii) for i in range(5)] + [LegPose.no_user(0.5)]
-        lengths = _reported_lengths(poses)
+        lengths = _reported_lengths(poses, placed=True)
         assert lengths is not None and lengths["foot_under_hem"] is hem
+        unplaced = _reported_lengths(poses, placed=False)  # the shoes as tracked: nothing was assumed
+        assert unplaced is not None and unplaced["foot_under_hem"] is False
         assert lengths["foot"] == pytest.approx(float(np.linalg.norm(pts[0, 4] - pts[0, 3])), abs=5e-4)
         row = _metadata_table({"reported_segment_lengths_m": lengths}, [])
         assert ("under a trouser hem" in row) is hem
-    assert _reported_lengths([LegPose.no_user(0.0)]) is None
+    assert _reported_lengths([LegPose.no_user(0.0)], placed=True) is None

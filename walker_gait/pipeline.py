@@ -666,22 +666,23 @@ class ProcessResult:
         return "\n".join(lines)
 
 
-def _reported_lengths(poses: Sequence[LegPose]) -> dict[str, Any] | None:
+def _reported_lengths(poses: Sequence[LegPose], *, placed: bool) -> dict[str, Any] | None:
     """The median thigh, calf and foot (heel to toe) length of the reported poses (m, to the mm), the standing hip
     height they make (``leg``: thigh + calf + the model's ankle height), which sets the reported hips' height, and
-    whether the calves were a tube of loose fabric down to a hem (``foot_under_hem``: the shoe's back hidden, its
-    length then at least the typical adult's, :func:`walker_gait.core.pelvis.shoe_length`); ``None`` without a pose."""
+    whether their shoes were reported under a trouser hem (``foot_under_hem``: the reported pelvis ``placed``, which
+    gives a shoe whose back a hem hides at least the typical adult's length, :func:`walker_gait.core.pelvis.hemmed`
+    and ``shoe_length``); ``None`` without a pose."""
     from walker_gait.core.leg_model import ANKLE_HEIGHT
-    from walker_gait.core.pelvis import hemmed, segment_lengths
+    from walker_gait.core.pelvis import calf_radii, hemmed, segment_lengths
 
     if not poses:
         return None
     thigh, calf, foot = (float(v) for v in segment_lengths(np.stack([p.points for p in poses])))
     if not math.isfinite(thigh):  # no pose with all its points
         return None
-    out: dict[str, Any] = {k: round(v, 3) for k, v in
-                           (("thigh", thigh), ("calf", calf), ("foot", foot), ("leg", thigh + calf + ANKLE_HEIGHT * foot))}
-    out["foot_under_hem"] = hemmed(np.array([p.radii[:, 1, 0] for p in poses if p.radii is not None]))
+    out: dict[str, Any] = {k: round(v, 3) for k, v in (("thigh", thigh), ("calf", calf), ("foot", foot),
+                                                        ("leg", thigh + calf + ANKLE_HEIGHT * foot))}
+    out["foot_under_hem"] = placed and hemmed(np.stack([calf_radii(p) for p in poses]))
     return out
 
 
@@ -1150,7 +1151,7 @@ def process_recording(path: Path, out_dir: Path, *, options: PipelineOptions | N
         "report_lowpass_hz": options.report_lowpass_hz if two_way else None,
         "report_pelvis_window_s": options.report_pelvis_window_s,
         "leg_length_m": (options.leg_length_m or None) if options.report_pelvis_window_s > 0 else None,
-        "reported_segment_lengths_m": _reported_lengths(poses),
+        "reported_segment_lengths_m": _reported_lengths(poses, placed=options.report_pelvis_window_s > 0),
         "frames_total": n_frames,
         "frames_processed": processed,
         "frames_skipped": dict(skipped),

@@ -83,6 +83,7 @@ __all__ = [
     "THIGH_SHARE",
     "WALK_LEAN_M",
     "WALK_SWING_M",
+    "calf_radii",
     "check_leg_length",
     "held_points",
     "hemmed",
@@ -367,8 +368,8 @@ def shoe_length(tracked: float, *, hem: bool) -> float:
     return float(tracked)
 
 
-def _calf_radii(pose: LegPose) -> FloatArray:
-    """``(2,)``: the pose's calves' proximal radii (m), NaN where it carries none."""
+def calf_radii(pose: LegPose) -> FloatArray:
+    """``(2,)``: the pose's calves' proximal radii (m, what :func:`hemmed` reads), NaN where it carries none."""
     return np.full(2, np.nan) if pose.radii is None else np.asarray(pose.radii, dtype=np.float64)[:, 1, 0]
 
 
@@ -597,9 +598,10 @@ def place_poses(poses: Sequence[LegPose], *, mounting: str = "facing_user",
     """The poses (floor-aligned frame, see the module docstring) with each tracked frame's pelvis placed where the
     ankles in a centred window of ``window_s`` put it (:func:`pelvis_target`) and its hips, knees and joint angles
     re-solved with the knees, ankles, heels and toes held (:func:`place_pelvis`), the feet of the track's median
-    length (:func:`segment_lengths`; under a trouser hem at least the typical shoe's, :func:`shoe_length`; a track ends at a frame that is ``NO_USER`` or ``SEARCHING``), the thighs and
-    calves the typical adult's (:data:`TYPICAL_THIGH_CALF_M`), each knee moved along its tracked calf
-    and each heel along its tracked foot to them (:func:`with_lengths`); with a measured ``leg_length_m`` the thighs
+    length (:func:`segment_lengths`; under a trouser hem at least the typical shoe's, :func:`shoe_length`; a track
+    ends at a frame that is ``NO_USER`` or ``SEARCHING``), the thighs and calves the typical adult's
+    (:data:`TYPICAL_THIGH_CALF_M`), each knee moved along its tracked calf and each heel along its tracked foot to
+    them (:func:`with_lengths`); with a measured ``leg_length_m`` the thighs
     and calves of that length (:func:`with_leg_length`).  Frames that are neither ``TRACKING`` nor ``DEGRADED`` or
     lack points or angles are returned as given; a pose the tracker held (the same points and angles as the frame
     before) is held as placed."""
@@ -632,7 +634,7 @@ def place_poses(poses: Sequence[LegPose], *, mounting: str = "facing_user",
 
     rise = np.stack([_shoe_measure(out[i].shoe_rise) for i in idx])
     turn = np.stack([_shoe_measure(out[i].shoe_turn) for i in idx])
-    calves = np.stack([_calf_radii(out[i]) for i in idx])
+    calves = np.stack([calf_radii(out[i]) for i in idx])
     for t in np.unique(track):
         seg = segment_lengths(body[track == t])
         seg[2] = shoe_length(seg[2], hem=hemmed(calves[track == t]))
@@ -675,10 +677,11 @@ class LivePelvis:
     straight line fitted to it against time, read at the newest frame, so a user who walks in or drifts towards the
     walker is not left behind by half a window) with the lean of the feet's swing and their heading in that window
     (:func:`pelvis_target`), the same re-solve with the feet of the median length over the track's frames so far (at
-    most :data:`LIVE_LENGTHS_FRAMES`; under a hem at least the typical shoe's, :func:`shoe_length`) and the thighs and calves as :func:`place_poses` has them, and the heels placed
-    as :func:`place_poses` places them, causally (:meth:`place`).  A frame without a track, a floor or time that
-    runs backwards starts the history afresh; a pose the tracker held (the same points and angles as the last one
-    placed: a blanked view) is held as placed.  ``leg_length_m`` as :func:`place_poses`'s."""
+    most :data:`LIVE_LENGTHS_FRAMES`; under a hem at least the typical shoe's, :func:`shoe_length`) and the thighs
+    and calves as :func:`place_poses` has them, and the heels placed as :func:`place_poses` places them, causally
+    (:meth:`place`).  A frame without a track, a floor or time that runs backwards starts the history afresh; a pose
+    the tracker held (the same points and angles as the last one placed: a blanked view) is held as placed.
+    ``leg_length_m`` as :func:`place_poses`'s."""
 
     def __init__(self, *, mounting: str = "facing_user", window_s: float = PLACE_WINDOW_S,
                  leg_length_m: float | None = None) -> None:
@@ -783,7 +786,7 @@ class LivePelvis:
         body = np.asarray(walker.points, dtype=np.float64) @ self._flip.T
         self._lengths[self._n_lengths % LIVE_LENGTHS_FRAMES] = np.linalg.norm(
             body[:, [HIP, KNEE, TOE]] - body[:, [KNEE, ANKLE, HEEL]], axis=-1)
-        self._calves[self._n_lengths % LIVE_LENGTHS_FRAMES] = _calf_radii(pose)
+        self._calves[self._n_lengths % LIVE_LENGTHS_FRAMES] = calf_radii(pose)
         self._n_lengths += 1
         n = min(self._n_lengths, LIVE_LENGTHS_FRAMES)
         lengths = np.median(self._lengths[:n].reshape(-1, 3), axis=0)
