@@ -756,8 +756,7 @@ class LivePelvis:
         session; at this length 0.3-0.7 cm better, seventy-first).  Other heels stay the tracker's.
         The toes and ankles stay the tracker's bit for bit, and a pose whose heels moved keeps the tracker's as
         ``heel_tracked`` (what the gait analysis reads, :meth:`LegPose.as_tracked`)."""
-        if not _placeable(pose) or not (floor.valid and np.all(np.isfinite(floor.normal))
-                                        and math.isfinite(floor.offset)):
+        if not _placeable(pose) or not floor.usable:
             if pose.status in (TrackStatus.NO_USER, TrackStatus.SEARCHING):
                 self.reset()
             return pose

@@ -677,7 +677,7 @@ class LiveBridge:
             out = self.flush()
         transform = None
         walker = LegPose.no_user(pose.stamp)
-        if floor.valid and np.all(np.isfinite(floor.normal)) and math.isfinite(floor.offset):
+        if floor.usable:
             transform = floor.walker_transform()
             walker = moved_pose(pose, *transform)
         ok = transform is not None and _has_points(walker)
@@ -901,7 +901,7 @@ def reported_poses(poses: Sequence[LegPose], *, hide_below: float, max_gap_s: fl
         if len(floors) != len(out):
             raise ValueError(f"{len(floors)} floors for {len(out)} poses")
         for i, (pose, floor) in enumerate(zip(out, floors)):
-            if floor.valid and np.all(np.isfinite(floor.normal)) and math.isfinite(floor.offset):
+            if floor.usable:
                 frames[i] = floor.walker_transform()
                 out[i] = moved_pose(pose, *frames[i])
             else:  # no walker frame to work in: left out of both, reported as tracked

@@ -823,7 +823,7 @@ class LegTracker:
             raise TrackerInputError(f"points must be (N, 3), got {pts.shape}")
         if not np.isfinite(pts).all():
             pts = pts[np.all(np.isfinite(pts), axis=1)]
-        no_floor = not (floor.valid and np.all(np.isfinite(floor.normal)) and math.isfinite(floor.offset))
+        no_floor = not floor.usable
         if no_floor or pts.shape[0] < self.config.min_fg_points:
             return np.full(x.shape[0], -np.inf)
         if not self.config.no_depth_unknown:
@@ -874,7 +874,7 @@ class LegTracker:
             no_depth = None  # pixels without depth are background to both cues (paper)
         # no floor in this frame (not found yet, or hidden by the user or something in front of the lens): there
         # is no walker frame to track in and no region of interest, so the frame counts as one without foreground
-        no_floor = not (floor.valid and np.all(np.isfinite(floor.normal)) and math.isfinite(floor.offset))
+        no_floor = not floor.usable
 
         holding = self._x is not None and self._last_pose is not None and self._coasted < cfg.coast_frames
         if no_floor or pts.shape[0] < cfg.min_fg_points:

@@ -30,6 +30,7 @@ the user.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field, replace
 from enum import IntEnum
 
@@ -178,6 +179,11 @@ class FloorPlane:
     valid: bool = True
     anchor: FloatArray | None = None  # (3,) camera frame: walker point at floor level; the walker origin is its foot point on this plane
     heading: FloatArray | None = None  # (3,) camera frame: walker direction whose projection on this plane is the walker +x
+
+    @property
+    def usable(self) -> bool:
+        """Whether this plane can place anything: ``valid`` with a finite normal and offset (a walker frame)."""
+        return bool(self.valid and np.all(np.isfinite(self.normal)) and math.isfinite(self.offset))
 
     def height(self, points: FloatArray) -> FloatArray:
         """Signed height (m) of ``(..., 3)`` camera-frame points above the floor."""
