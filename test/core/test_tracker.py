@@ -7,6 +7,7 @@ so accuracy here is optimistic; the bench reports the generator-based figures.
 from __future__ import annotations
 
 import dataclasses
+import math
 
 import numpy as np
 import pytest
@@ -641,6 +642,133 @@ def test_a_hidden_leg_is_drawn_before_the_visible_one(first: bool) -> None:
     tr._hidden.hidden[:] = False
     tr._hidden.hidden[1, 2] = True  # only the right foot hidden: the calf still measured
     assert order() == left_first
+
+
+def _lined_up(right: tuple[float, float], left: tuple[float, float] = (0.0, 0.0)) -> np.ndarray:
+    """A narrow gait's pose, feet nearly in line (8 cm apart across): hip flexion and knee flexion of each leg."""
+    L = lm.StateLayout
+    x = lm.neutral_state(right_hip_xy=(-0.85, -0.09), hip_dist=0.18)
+    for side, (flex, knee) in ((0, left), (1, right)):
+        leg = L.leg(side)
+        x[leg.start + L.HIP_ABD], x[leg.start + L.HIP_FLEX], x[leg.start + L.KNEE_FLEX] = -0.05, flex, knee
+    out, _, bad = lm.enforce_constraints(lm.apply_floor_contact(x[None]))
+    assert not bad[0]
+    return out[0]
+
+
+_BEHIND = _lined_up(right=(-0.2, 0.5))  # the left foot standing, the right one swinging behind it
+_IN_FRONT = _lined_up(right=(0.3, 0.3))  # the right foot come out 13 cm in front of the standing left one
+_EXCHANGED = _lined_up(right=(-0.2, 0.5), left=(0.3, 0.3))  # the left model foot on it, the right one still behind
+
+
+def _passing_scene(seed: int, **overrides: object) -> tuple[LegTracker, object]:
+    """A track whose left foot has stood on the floor for three frames while its right leg (calf and foot HIDDEN) is
+    held behind it (:data:`_BEHIND`), and the next frame, in which the right foot has come out in front
+    (:data:`_IN_FRONT`); re-detections off, so that only the passing check acts."""
+    floor = FloorPlane.from_camera_pose(height=0.70, pitch=0.50)
+    rng = np.random.default_rng(100 + seed)
+
+    def frame(state: np.ndarray, k: int):  # noqa: ANN202
+        return render_frame(state, intrinsics=KINECT, floor=floor, mounting="facing_user", rng=rng, stamp=k / 30,
+                            elliptic_foot=True)
+
+    cfg = preset("default", n_particles=64, init_rounds=4, redetect_every_s=0.0, **overrides)
+    tr = LegTracker(cfg, KINECT, rng=np.random.default_rng(seed))
+    _run(tr, [frame(_BEHIND, k) for k in range(3)])
+    tr._x = np.repeat(_BEHIND[None], 64, axis=0)
+    tr._x_prev, tr._logw, tr._unexplained_run = tr._x.copy(), np.zeros(64), 0
+    tr._hidden.hidden[:] = False
+    tr._hidden.hidden[1, 1:] = True
+    toes = lm.forward_kinematics(_BEHIND[None]).points[0, :, TOE]
+    tr._toes = [(k / 30, toes.copy(), _BEHIND.copy()) for k in range(3)]
+    return tr, frame(_IN_FRONT, 3)
+
+
+def _first_tracking_exchanges(tr: LegTracker) -> list[int | None]:
+    """Make the frame's first tracking come out as :data:`_EXCHANGED` (what the filter did in the bench's
+    `occlusion` session); later trackings run as they are.  Returns the ``first`` leg of every tracking."""
+    calls: list[int | None] = []
+    stages = tr._run_stages
+
+    def run(frame, x, **kw):  # noqa: ANN001, ANN003, ANN202
+        calls.append(kw.get("first"))
+        if len(calls) == 1:
+            tr._last_ll = np.zeros(x.shape[0])
+            return np.repeat(_EXCHANGED[None], x.shape[0], axis=0)
+        return stages(frame, x, **kw)
+
+    tr._run_stages = run  # type: ignore[method-assign]
+    return calls
+
+
+def test_a_standing_foot_that_jumps_onto_the_hidden_swinging_foot_is_tracked_again() -> None:
+    """The swinging foot, HIDDEN behind the standing one, passes it in depth and comes out in front; the standing
+    foot's model leg, drawn while the hidden one is still held behind, takes it (legs exchanged).  A seen foot that
+    stood on the floor and now comes forward ``passing_jump`` has the frame tracked a second time, the standing leg
+    started where it stood and the hidden leg drawn afresh and first, and the likelier outcome is kept: here the
+    second, with each foot on its own."""
+    assert math.isfinite(DEFAULT.passing_jump)
+    body = lm.BodyFrame.from_floor(FloorPlane.from_camera_pose(height=0.70, pitch=0.50), mounting="facing_user")
+    truth = lm.forward_kinematics(_IN_FRONT[None]).points[0]
+    exchanged = lm.forward_kinematics(_EXCHANGED[None]).points[0]
+    assert exchanged[0, TOE, 0] - truth[0, TOE, 0] > 0.1  # the exchange took the left foot 13 cm forward
+    for seed in (0, 1, 2):
+        tr, f = _passing_scene(seed)
+        calls = _first_tracking_exchanges(tr)
+        pose = tr.update(stamp=f.stamp, points=f.points, depth_fg=f.depth, floor=f.floor)
+        assert calls == [None, 1]  # tracked again, the hidden right leg drawn first
+        assert tr.passings == tr.passings_taken == 1
+        est = body.to_body(pose.points)
+        err = np.linalg.norm(est[:, ANKLE:] - truth[:, ANKLE:], axis=-1).mean(axis=1)
+        assert err[0] < 0.03, err  # the left foot where it stands
+        assert err[1] < 0.12, err  # the right one found in front (not 60 cm behind)
+        # off, the exchange stands
+        tr, f = _passing_scene(seed, passing_jump=math.inf)
+        calls = _first_tracking_exchanges(tr)
+        pose = tr.update(stamp=f.stamp, points=f.points, depth_fg=f.depth, floor=f.floor)
+        assert calls == [None] and tr.passings == 0
+        assert np.linalg.norm(body.to_body(pose.points)[0, TOE] - truth[1, TOE]) < 0.05  # the left on the right foot
+
+
+def test_a_passing_check_that_keeps_the_first_tracking_leaves_the_track_as_without_it() -> None:
+    """The second tracking draws from a stream of its own: where the first is kept (here made likelier), the track
+    goes on exactly as with the check off."""
+    poses = []
+    for jump in (DEFAULT.passing_jump, math.inf):
+        tr, f = _passing_scene(0, passing_jump=jump)
+        _first_tracking_exchanges(tr)
+        compare = tr._compare
+        tr._compare = lambda frame, states: compare(frame, states) - np.array([0.0, 1e6])  # type: ignore[method-assign]
+        poses.append(tr.update(stamp=f.stamp, points=f.points, depth_fg=f.depth, floor=f.floor))
+        poses.append(tr.update(stamp=f.stamp + 1 / 30, points=f.points, depth_fg=f.depth, floor=f.floor))
+        assert (tr.passings >= 1 if math.isfinite(jump) else tr.passings == 0) and tr.passings_taken == 0
+    for a, b in zip(poses[:2], poses[2:]):
+        np.testing.assert_array_equal(a.points, b.points)
+
+
+@pytest.mark.parametrize("case", ["other_seen", "not_standing", "lifted", "gap", "watched"])
+def test_the_passing_check_watches_a_standing_foot_while_the_other_is_unseen(case: str) -> None:
+    """Only a foot that is not HIDDEN, whose toe stood on the floor (below ``FOOTPRINT_HEIGHT``) two and three frames
+    ago without coming forward, while the other foot is HIDDEN or went unseen in the last frame, on frames that
+    follow each other."""
+    tr, _ = _passing_scene(0)
+    tr._stamp = 3 / 30
+    assert tr._passing_legs() == [0]
+    if case == "other_seen":
+        tr._hidden.hidden[:] = False
+        assert tr._last_pose is not None and tr._last_pose.visibility is not None
+        tr._last_pose.visibility[:, 2] = 1.0
+    elif case == "not_standing":  # the left toe came forward 2 cm between the two older frames
+        tr._toes[1][1][0, 0] += 0.02
+    elif case == "lifted":
+        tr._toes[0][1][0, 2] = 0.05
+    elif case == "gap":
+        tr._stamp = 0.5
+    else:  # the right foot unseen in the last frame, not yet HIDDEN: watched all the same
+        tr._hidden.hidden[:] = False
+        assert tr._last_pose is not None and tr._last_pose.visibility is not None
+        tr._last_pose.visibility[:, 2] = [1.0, 0.1]
+    assert tr._passing_legs() == ([0] if case == "watched" else [])
 
 
 @pytest.mark.parametrize("damping", [0.0, 0.5, 1.0])
@@ -1369,7 +1497,7 @@ def test_root_compensation_keeps_the_velocity_of_the_legs() -> None:
     tr._x_prev = prev.copy()
     root = np.zeros(lm.STATE_DIM, dtype=bool)
     root[lm.L.ROOT_X] = root[lm.L.ROOT_Y] = True
-    tr._stages = lambda: [(root, (0, 1), None)]  # one root-only stage
+    tr._stages = lambda first=None: [(root, (0, 1), None)]  # one root-only stage
     # the final layer is kept unresampled, so its rows still pair with `x` and `prev`
     new = tr._run_stages(tr._prepare(f.points, f.depth, f.floor), x, gain=1.0, layers=1, betas=(1.0,), final=True)
     a = lm.L.ANGLES

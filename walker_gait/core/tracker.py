@@ -87,7 +87,17 @@ lives in the floor-aligned *body* frame of :mod:`walker_gait.core.leg_model`):
    (for ``hidden_search_frames`` frames in a row), and such a leg keeps only
    ``hidden_velocity_damping`` of its joint-angle velocity (``default``: none, it holds its pose): the
    velocity of its last seen frames, carried on through a hidden stance, ran the model foot 20-50 cm past
-   the real one, which by then was swinging forward;
+   the real one, which by then was swinging forward.  Neither rule acts in the frame in which the hidden foot,
+   swinging past the standing one in depth (a narrow gait lines them up), comes out in front of it: its data are
+   new, the seen leg is drawn with the hidden one held behind, and the seen leg takes them, the hidden one then the
+   standing foot (the legs exchanged for 12-30 frames, seventy-first session).  So where a seen foot (not HIDDEN)
+   whose toe stood on the floor two and three frames ago comes forward ``passing_jump`` (``default``) from there
+   while the other foot is HIDDEN or went unseen in the last frame, the frame is tracked a second time: the
+   standing leg started from its pose of two frames ago without velocity, the other leg drawn afresh in half of the
+   particles and drawn first; each outcome's mean is weighed with every segment in the likelihood (as a
+   re-detection) and a Gaussian (``passing_sigma``) on how far the standing foot came forward, and the likelier
+   outcome is kept.  The second tracking draws from a stream of its own (one not kept leaves the track as it was)
+   and costs a frame's tracking again where it runs (in none of set C's `normal` sessions);
 7. status/confidence from the foreground support of the estimate; a lost track
    (confidence < ``lost_confidence`` for ``lost_frames`` frames) re-initialises, and so does
    a track that leaves foreground unexplained (less than ``min_explained`` of it within
@@ -205,6 +215,13 @@ _UNSUPPORTED_MAX = 0.1  # a leg's calf + foot with at most this share of their c
 _REDETECT_POINTS = 2048
 """Most foreground points a re-detection's comparison of the fresh estimate with the track's weighs."""
 
+_PASSING_STILL = 0.01
+"""m: a foot whose toe came forward at most this much over a frame stood still on the floor (``passing_jump``)."""
+_PASSING_HISTORY = 3
+"""Frames of the estimate the passing check keeps: the seen foot stood on the floor in the oldest two."""
+_PASSING_SEARCH_SHARE = 0.5
+"""Share of the particles whose hidden leg the passing check's second tracking draws afresh (``passing_jump``)."""
+
 _COMPENSATED_ROOT = (StateLayout.ROOT_X, StateLayout.ROOT_Y, StateLayout.HIP_AZ)
 """State dims whose random moves ``root_compensation`` offsets in the legs' angles: the pelvis's place and turn over the
 floor (its height follows the floor contact)."""
@@ -248,6 +265,8 @@ class TrackerConfig:
     hidden_search_share: float = 0.0  # share of the particles whose hidden leg (calf and foot HIDDEN) is drawn afresh from a wide range of poses while the estimate leaves more than `hidden_search_unexplained` of the foreground unexplained (0 = off, paper)
     hidden_search_unexplained: float = 0.2  # unexplained foreground share that starts that search ...
     hidden_search_frames: int = 3  # ... once it has lasted this many frames in a row
+    passing_jump: float = math.inf  # m: a seen foot whose toe stood on the floor two and three frames ago and now comes forward this far from there, while the other foot is HIDDEN or went unseen in the last frame (the hidden foot swinging past it in depth may have come out in front, and the seen leg taken it), has the frame tracked a second time, the standing leg started where it stood and the other drawn afresh and first, and the likelier of the two kept (inf = off, paper)
+    passing_sigma: float = 0.03  # m, std-dev of that comparison's Gaussian on how far the standing foot came forward (beyond 1 cm) from where it stood two frames ago
     hidden_leg_first: bool = False  # partitioned sampling draws a leg whose calf and foot are HIDDEN before the other one (false: left, then right, always; paper)
     root_compensation: float = 0.0  # share of the particles whose random move of the pelvis over the floor (right hip x/y, pelvis azimuth) comes with the leg-angle change that keeps each leg's ankle, heel, toe and lower calf where they were (least squares, linearised at the particles' mean), so the out-of-view hips can move without dragging the seen feet (a leg whose calf and foot are HIDDEN moves with the pelvis); the rest move the whole body as before (0 = none, paper)
     hidden_velocity_damping: float = 1.0  # factor on the joint-angle velocity of a leg whose calf and foot are HIDDEN, on top of `velocity_damping` (1 = as any leg, paper; 0 = hold its pose)
@@ -330,6 +349,8 @@ class TrackerConfig:
                 and self.redetect_rounds >= 0):
             raise ValueError("redetect_every_s must be finite and >= 0 (0 = never), redetect_margin and redetect_rounds "
                              f">= 0, got {self.redetect_every_s}, {self.redetect_margin}, {self.redetect_rounds}")
+        if not (self.passing_jump > 0 and self.passing_sigma > 0):
+            raise ValueError(f"passing_jump and passing_sigma must be > 0, got {self.passing_jump}, {self.passing_sigma}")
         if self.hidden_search_frames < 1:
             raise ValueError(f"hidden_search_frames must be >= 1, got {self.hidden_search_frames}")
         if not 0.0 <= self.hidden_velocity_damping <= 1.0:
@@ -426,6 +447,7 @@ DEFAULT = TrackerConfig(
     hidden_search_share=0.25,
     hidden_velocity_damping=0.0,
     hidden_leg_first=True,
+    passing_jump=0.035,
     coast_frames=15,
     blank_view_share=0.7,
     presence_height=0.40,
@@ -727,6 +749,10 @@ class LegTracker:
         # the re-detections draw from a stream of their own, so one that is not adopted leaves the track exactly as
         # it would be without it (the main stream is not advanced by it)
         self._redetect_rng = _child_generator(rng)
+        self._passing_rng = _child_generator(self._redetect_rng)  # the passing check's second tracking, likewise
+        self._direction = -1.0 if time_reversed else 1.0  # +x is forward in time: a swinging foot's way
+        self.passings = 0  # frames tracked a second time by the passing check (`passing_jump`) ...
+        self.passings_taken = 0  # ... and those whose second tracking was kept
         self.mounting = mounting
         self.time_reversed = time_reversed  # fed a recording backwards (stamps negated): the walker backs away
         self.defer_feet = defer_feet
@@ -933,6 +959,10 @@ class LegTracker:
             self._redetect_stamp = float(stamp)
             self._redetect(frame)
         pose, conf, explained, unsupported = self._estimate(frame, stamp)
+        if math.isfinite(cfg.passing_jump):
+            assert self._mean is not None
+            toes = lm.forward_kinematics(self._mean[None]).points[0, :, TOE].copy()
+            self._toes = [*self._toes[1 - _PASSING_HISTORY:], (float(stamp), toes, self._mean.copy())]
         self._unexplained_run = self._unexplained_run + 1 if 1.0 - explained > cfg.hidden_search_unexplained else 0
         # track management
         self._unsupported_run = np.where(unsupported, self._unsupported_run + 1, 0)
@@ -1277,8 +1307,9 @@ class LegTracker:
                 g[L.leg(side)] = self.config.reappear_noise_gain
         return g
 
-    def _stages(self) -> list[tuple[np.ndarray, tuple[int, ...], int | None]]:
-        """(dims mask, legs evaluated, reference leg) per partition."""
+    def _stages(self, first: int | None = None) -> list[tuple[np.ndarray, tuple[int, ...], int | None]]:
+        """(dims mask, legs evaluated, reference leg) per partition; ``first``: the leg drawn first (default: a
+        HIDDEN one with ``hidden_leg_first``, else the left)."""
         if not self.config.partitioned:
             return [(np.ones(lm.STATE_DIM, dtype=bool), (0, 1), None)]
         root = np.zeros(lm.STATE_DIM, dtype=bool)
@@ -1288,7 +1319,7 @@ class LegTracker:
         right = np.zeros(lm.STATE_DIM, dtype=bool)
         right[L.RIGHT] = True
         h = self._hidden.hidden
-        if self.config.hidden_leg_first and h[1, 1:].all() and not h[0, 1:].all():
+        if first == 1 or (first is None and self.config.hidden_leg_first and h[1, 1:].all() and not h[0, 1:].all()):
             # the hidden right leg first, against the visible left one where it was: drawn second, the left leg
             # was free to take data the hidden leg's real counterpart had left unexplained (a trailing leg that
             # swings past the other one while the model still holds it behind), and the hidden leg's search then
@@ -1305,15 +1336,17 @@ class LegTracker:
         layers: int,
         betas: tuple[float, ...],
         final: bool = False,
+        first: int | None = None,
     ) -> FloatArray:
         """Partitioned annealed search.
 
         Returns the particles; with ``final`` the very last layer is *not* resampled and its
         log likelihood is kept in ``self._last_ll`` as the frame's particle weights (saves one
-        full evaluation), otherwise the returned particles carry uniform weights.
+        full evaluation), otherwise the returned particles carry uniform weights.  ``first``: the leg drawn first
+        (default: as :meth:`_stages` orders them).
         """
         cfg = self.config
-        stages = self._stages()
+        stages = self._stages(first)
         comp = self._root_compensation(x) if cfg.root_compensation > 0 else None
         for k, (dims, legs, ref_leg) in enumerate(stages):
             ref = None
@@ -1360,14 +1393,91 @@ class LegTracker:
                     x_pred = self._search_hidden_leg(x_pred, side)
         gain = self._leg_gain()
         if cfg.partitioned or cfg.n_layers > 1:
+            standing = self._passing_legs()
+            before = (x_pred, None if self._x_prev is None else self._x_prev.copy())
             x = self._run_stages(frame, x_pred, gain=gain, layers=cfg.n_layers, betas=cfg.anneal_betas, final=True)
+            if standing:
+                x = self._passing_check(frame, x, before, legs=standing, gain=gain)
         else:
             comp = self._root_compensation(x_pred) if cfg.root_compensation > 0 else None
             x, _ = self._diffuse(x_pred, np.ones(lm.STATE_DIM, dtype=bool), gain, comp)
         self._x = x
         self._hidden.boost = np.maximum(self._hidden.boost - 1, 0)
 
-    def _search_hidden_leg(self, x: FloatArray, side: int, *, tries: int = 4) -> FloatArray:
+    def _passing_legs(self) -> list[int]:
+        """The legs whose feet this frame's :meth:`_passing_check` watches: not HIDDEN while the other foot is HIDDEN
+        or went unseen in the last frame, and their toes stood on the floor two and three frames ago without coming
+        forward between them (``passing_jump``)."""
+        cfg = self.config
+        pose = self._last_pose
+        if not math.isfinite(cfg.passing_jump) or len(self._toes) < _PASSING_HISTORY or pose is None \
+                or pose.visibility is None:
+            return []
+        unseen = self._hidden.hidden[:, 2] | (pose.visibility[:, 2] < cfg.hide_below)
+        stamps = [t for t, _, _ in self._toes[-_PASSING_HISTORY:]] + [self._stamp]
+        if not all(0.0 < abs(b - a) <= 0.1 for a, b in zip(stamps[:-1], stamps[1:])):
+            return []
+        (_, p0, _), (_, p1, _) = self._toes[-_PASSING_HISTORY:][:2]
+        return [leg for leg in (0, 1) if not self._hidden.hidden[leg, 2] and unseen[1 - leg]
+                and max(p0[leg, 2], p1[leg, 2]) < FOOTPRINT_HEIGHT
+                and self._direction * (p1[leg, 0] - p0[leg, 0]) <= _PASSING_STILL]
+
+    def _passing_jump(self, state: FloatArray, seen_leg: int) -> float:
+        """m: how far the toe of ``seen_leg`` of ``state`` came forward from where it stood two frames ago."""
+        toe = lm.forward_kinematics(state[None]).points[0, seen_leg, TOE]
+        return float(self._direction * (toe[0] - self._toes[-2][1][seen_leg, 0]))
+
+    def _passing_check(self, frame: _Frame, x: FloatArray, before: tuple[FloatArray, FloatArray | None], *,
+                       legs: list[int], gain: FloatArray) -> FloatArray:
+        """The frame's particles ``x`` (tracked from ``before``: the predicted particles and their previous ones),
+        or those of a second tracking of the frame, where the foot of one of the standing ``legs``
+        (:meth:`_passing_legs`) came forward ``passing_jump`` from where it stood two frames ago.  A standing foot does not come forward, but the hidden foot swinging past
+        it in depth comes out in front of it, and the seen leg, drawn while the hidden one is held where it was last
+        seen (behind), takes the foot that came out (the legs exchanged live, seventy-first session).  The second
+        tracking starts the seen leg from its pose of two frames ago, without velocity, draws the hidden leg afresh
+        in half of the particles (as ``hidden_search_share``) and draws the hidden leg first.  Each outcome's mean
+        state is weighed with every segment in the likelihood (as a re-detection) and a Gaussian (``passing_sigma``)
+        on how far the standing foot came forward; the likelier is kept.  The second tracking draws from a stream of
+        its own: kept or not, the first is as it would be without the check."""
+        cfg = self.config
+        assert self._last_ll is not None
+        mean_a = self._weighted_mean(x, self._last_ll)
+        jump = {leg: self._passing_jump(mean_a, leg) for leg in legs}
+        seen_leg = max(jump, key=jump.__getitem__)
+        if jump[seen_leg] < cfg.passing_jump:
+            return x
+        hidden_leg = 1 - seen_leg
+        a_ll, a_prev, main_rng = self._last_ll, self._x_prev, self.rng
+        self.rng = self._passing_rng
+        leg = L.leg(seen_leg)
+        start = before[0].copy()
+        start[:, leg] = self._toes[-2][2][leg]  # the seen leg as it stood, without velocity
+        prev = start.copy() if before[1] is None else before[1].copy()
+        prev[:, leg] = start[:, leg]
+        self._x_prev = prev
+        try:
+            xb = self._search_hidden_leg(start, hidden_leg, share=_PASSING_SEARCH_SHARE)
+            xb = self._run_stages(frame, xb, gain=gain, layers=cfg.n_layers, betas=cfg.anneal_betas, final=True,
+                                  first=hidden_leg)
+            b_ll, b_prev = self._last_ll, self._x_prev
+            assert b_ll is not None
+            means = np.stack([mean_a, self._weighted_mean(xb, b_ll)])
+            means, _, _ = lm.enforce_constraints(means)
+            ll = self._compare(frame, means)
+        finally:
+            self.rng = main_rng
+        jumps = np.array([max(self._passing_jump(m, seen_leg) - _PASSING_STILL, 0.0) for m in means])
+        score = ll - 0.5 * (jumps / cfg.passing_sigma) ** 2
+        self.passings += 1
+        if score[1] > score[0]:
+            self.passings_taken += 1
+            self._last_ll, self._x_prev = b_ll, b_prev
+            return xb
+        self._last_ll, self._x_prev = a_ll, a_prev
+        return x
+
+    def _search_hidden_leg(self, x: FloatArray, side: int, *, tries: int = 4,
+                           share: float | None = None) -> FloatArray:
         """``x`` with the leg ``side`` of a share of the particles drawn from a wide range of poses.
 
         A leg whose calf and foot are HIDDEN is out of ``d_MF`` and held only by the dynamics; where the
@@ -1381,7 +1491,7 @@ class LegTracker:
         """
         cfg = self.config
         p = x.shape[0]
-        n = int(round(cfg.hidden_search_share * p))
+        n = int(round((cfg.hidden_search_share if share is None else share) * p))
         if n == 0:
             return x
         rows = self.rng.choice(p, size=n, replace=False)
@@ -1457,9 +1567,10 @@ class LegTracker:
         return lm.enforce_constraints(state[None])[0][0]
 
     def _forget_parts(self) -> None:
-        """A new particle set's hidden-part state and footprints: nothing hidden, no footprint."""
+        """A new particle set's hidden-part state, footprints and toe history: nothing hidden, no footprint, no toes."""
         self._hidden = _HiddenState()
         self._footprints = _Footprints(direction=-1.0 if self.time_reversed else 1.0)
+        self._toes: list[tuple[float, FloatArray, FloatArray]] = []  # (stamp, (2, 3) toes, mean state), last frames
 
     def _initialise(self, frame: _Frame) -> None:
         self._forget_parts()
@@ -1509,11 +1620,7 @@ class LegTracker:
             fresh = self._search_fresh(frame, self.config.redetect_rounds or None)
             means = np.stack([self._weighted_mean(track_x, self._logw), fresh.mean(axis=0)])
             means, _, _ = lm.enforce_constraints(means)
-            # two states only: all the foreground points (up to _REDETECT_POINTS) are affordable, so the comparison
-            # does not hang on the particles' sub-sample of them
-            every = frame.fg_all_body[:: max(1, math.ceil(frame.fg_all_body.shape[0] / _REDETECT_POINTS))]
-            full = dataclasses.replace(frame, fg=frame.body.to_camera(every)) if every.shape[0] else frame
-            ll = self._evaluate(full, means, legs=(0, 1), ref=None)
+            ll = self._compare(frame, means)
         finally:
             self._hidden = hidden
             self._x_prev = track_prev
@@ -1525,6 +1632,19 @@ class LegTracker:
         self._x_prev = fresh.copy()
         self._logw = self._evaluate(frame, fresh, legs=(0, 1), ref=None)
         return True
+
+    def _compare(self, frame: _Frame, states: FloatArray) -> FloatArray:
+        """Log likelihood of a few ``states`` with every segment of both legs in it (none left out as hidden) and
+        all the frame's foreground points (up to ``_REDETECT_POINTS``): few states make them all affordable, so the
+        comparison does not hang on the particles' sub-sample of them."""
+        every = frame.fg_all_body[:: max(1, math.ceil(frame.fg_all_body.shape[0] / _REDETECT_POINTS))]
+        full = dataclasses.replace(frame, fg=frame.body.to_camera(every)) if every.shape[0] else frame
+        hidden = self._hidden
+        self._hidden = _HiddenState()
+        try:
+            return self._evaluate(full, states, legs=(0, 1), ref=None)
+        finally:
+            self._hidden = hidden
 
     # -- estimate, visibility, confidence ----------------------------------------------
     def _estimate(self, frame: _Frame, stamp: float) -> tuple[LegPose, float, float, BoolArray]:

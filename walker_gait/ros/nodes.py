@@ -474,7 +474,11 @@ class LegTrackerNode(WalkerNode):
                 self._publish_bridged(self.bridge.flush())
 
     def diagnostic_values(self) -> dict[str, Any]:
-        return {} if self.bridge is None else {"bridge_held": self.bridge.held}
+        out: dict[str, Any] = {} if self.bridge is None else {"bridge_held": self.bridge.held}
+        if self.tracker is not None:  # frames tracked again by the passing check (`passing_jump`), and kept
+            out["passing_checks"] = self.tracker.passings
+            out["passing_checks_kept"] = self.tracker.passings_taken
+        return out
 
     def _publish_bridged(self, released: list[tuple[Any, Any]]) -> None:
         assert self.pub_bridged is not None
