@@ -680,7 +680,7 @@ def _passing_scene(seed: int, **overrides: object) -> tuple[LegTracker, object]:
     tr._hidden.hidden[:] = False
     tr._hidden.hidden[1, 1:] = True
     toes = lm.forward_kinematics(_BEHIND[None]).points[0, :, TOE]
-    tr._toes = [(k / 30, toes.copy(), _BEHIND.copy()) for k in range(3)]
+    tr._recent = [(k / 30, toes.copy(), _BEHIND.copy()) for k in range(3)]
     return tr, frame(_IN_FRONT, 3)
 
 
@@ -717,7 +717,7 @@ def test_a_standing_foot_that_jumps_onto_the_hidden_swinging_foot_is_tracked_aga
         calls = _first_tracking_exchanges(tr)
         pose = tr.update(stamp=f.stamp, points=f.points, depth_fg=f.depth, floor=f.floor)
         assert calls == [None, 1]  # tracked again, the hidden right leg drawn first
-        assert tr.passings == tr.passings_taken == 1
+        assert tr.passings == tr.passings_kept == 1
         est = body.to_body(pose.points)
         err = np.linalg.norm(est[:, ANKLE:] - truth[:, ANKLE:], axis=-1).mean(axis=1)
         assert err[0] < 0.03, err  # the left foot where it stands
@@ -741,7 +741,7 @@ def test_a_passing_check_that_keeps_the_first_tracking_leaves_the_track_as_witho
         tr._compare = lambda frame, states: compare(frame, states) - np.array([0.0, 1e6])  # type: ignore[method-assign]
         poses.append(tr.update(stamp=f.stamp, points=f.points, depth_fg=f.depth, floor=f.floor))
         poses.append(tr.update(stamp=f.stamp + 1 / 30, points=f.points, depth_fg=f.depth, floor=f.floor))
-        assert (tr.passings >= 1 if math.isfinite(jump) else tr.passings == 0) and tr.passings_taken == 0
+        assert (tr.passings >= 1 if math.isfinite(jump) else tr.passings == 0) and tr.passings_kept == 0
     for a, b in zip(poses[:2], poses[2:]):
         np.testing.assert_array_equal(a.points, b.points)
 
@@ -759,9 +759,9 @@ def test_the_passing_check_watches_a_standing_foot_while_the_other_is_unseen(cas
         assert tr._last_pose is not None and tr._last_pose.visibility is not None
         tr._last_pose.visibility[:, 2] = 1.0
     elif case == "not_standing":  # the left toe came forward 2 cm between the two older frames
-        tr._toes[1][1][0, 0] += 0.02
+        tr._recent[1][1][0, 0] += 0.02
     elif case == "lifted":
-        tr._toes[0][1][0, 2] = 0.05
+        tr._recent[0][1][0, 2] = 0.05
     elif case == "gap":
         tr._stamp = 0.5
     else:  # the right foot unseen in the last frame, not yet HIDDEN: watched all the same

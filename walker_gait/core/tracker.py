@@ -752,7 +752,7 @@ class LegTracker:
         self._passing_rng = _child_generator(self._redetect_rng)  # the passing check's second tracking, likewise
         self._direction = -1.0 if time_reversed else 1.0  # +x is forward in time: a swinging foot's way
         self.passings = 0  # frames tracked a second time by the passing check (`passing_jump`) ...
-        self.passings_taken = 0  # ... and those whose second tracking was kept
+        self.passings_kept = 0  # ... and those whose second tracking was kept
         self.mounting = mounting
         self.time_reversed = time_reversed  # fed a recording backwards (stamps negated): the walker backs away
         self.defer_feet = defer_feet
@@ -962,7 +962,7 @@ class LegTracker:
         if math.isfinite(cfg.passing_jump):
             assert self._mean is not None
             toes = lm.forward_kinematics(self._mean[None]).points[0, :, TOE].copy()
-            self._toes = [*self._toes[1 - _PASSING_HISTORY:], (float(stamp), toes, self._mean.copy())]
+            self._recent = [*self._recent[1 - _PASSING_HISTORY:], (float(stamp), toes, self._mean.copy())]
         self._unexplained_run = self._unexplained_run + 1 if 1.0 - explained > cfg.hidden_search_unexplained else 0
         # track management
         self._unsupported_run = np.where(unsupported, self._unsupported_run + 1, 0)
@@ -1410,14 +1410,14 @@ class LegTracker:
         forward between them (``passing_jump``)."""
         cfg = self.config
         pose = self._last_pose
-        if not math.isfinite(cfg.passing_jump) or len(self._toes) < _PASSING_HISTORY or pose is None \
+        if not math.isfinite(cfg.passing_jump) or len(self._recent) < _PASSING_HISTORY or pose is None \
                 or pose.visibility is None:
             return []
         unseen = self._hidden.hidden[:, 2] | (pose.visibility[:, 2] < cfg.hide_below)
-        stamps = [t for t, _, _ in self._toes[-_PASSING_HISTORY:]] + [self._stamp]
+        stamps = [t for t, _, _ in self._recent[-_PASSING_HISTORY:]] + [self._stamp]
         if not all(0.0 < abs(b - a) <= 0.1 for a, b in zip(stamps[:-1], stamps[1:])):
             return []
-        (_, p0, _), (_, p1, _) = self._toes[-_PASSING_HISTORY:][:2]
+        (_, p0, _), (_, p1, _) = self._recent[-_PASSING_HISTORY:][:2]
         return [leg for leg in (0, 1) if not self._hidden.hidden[leg, 2] and unseen[1 - leg]
                 and max(p0[leg, 2], p1[leg, 2]) < FOOTPRINT_HEIGHT
                 and self._direction * (p1[leg, 0] - p0[leg, 0]) <= _PASSING_STILL]
@@ -1425,20 +1425,21 @@ class LegTracker:
     def _passing_jump(self, state: FloatArray, seen_leg: int) -> float:
         """m: how far the toe of ``seen_leg`` of ``state`` came forward from where it stood two frames ago."""
         toe = lm.forward_kinematics(state[None]).points[0, seen_leg, TOE]
-        return float(self._direction * (toe[0] - self._toes[-2][1][seen_leg, 0]))
+        return float(self._direction * (toe[0] - self._recent[-2][1][seen_leg, 0]))
 
     def _passing_check(self, frame: _Frame, x: FloatArray, before: tuple[FloatArray, FloatArray | None], *,
                        legs: list[int], gain: FloatArray) -> FloatArray:
         """The frame's particles ``x`` (tracked from ``before``: the predicted particles and their previous ones),
         or those of a second tracking of the frame, where the foot of one of the standing ``legs``
-        (:meth:`_passing_legs`) came forward ``passing_jump`` from where it stood two frames ago.  A standing foot does not come forward, but the hidden foot swinging past
-        it in depth comes out in front of it, and the seen leg, drawn while the hidden one is held where it was last
-        seen (behind), takes the foot that came out (the legs exchanged live, seventy-first session).  The second
-        tracking starts the seen leg from its pose of two frames ago, without velocity, draws the hidden leg afresh
-        in half of the particles (as ``hidden_search_share``) and draws the hidden leg first.  Each outcome's mean
-        state is weighed with every segment in the likelihood (as a re-detection) and a Gaussian (``passing_sigma``)
-        on how far the standing foot came forward; the likelier is kept.  The second tracking draws from a stream of
-        its own: kept or not, the first is as it would be without the check."""
+        (:meth:`_passing_legs`) came forward ``passing_jump`` from where it stood two frames ago.  A standing foot
+        does not come forward, but the hidden foot swinging past it in depth comes out in front of it, and the seen
+        leg, drawn while the other is held where it was last seen (behind), takes the foot that came out (the legs
+        exchanged live, seventy-first session).  The second tracking starts the standing leg from its pose of two
+        frames ago, without velocity, draws the other leg afresh in half of the particles (as
+        ``hidden_search_share``) and draws it first.  Each outcome's mean state is weighed with every segment in the
+        likelihood (as a re-detection) and a Gaussian (``passing_sigma``) on how far the standing foot came forward;
+        the likelier is kept.  The second tracking draws from a stream of its own: kept or not, the first is as it
+        would be without the check."""
         cfg = self.config
         assert self._last_ll is not None
         mean_a = self._weighted_mean(x, self._last_ll)
@@ -1451,7 +1452,7 @@ class LegTracker:
         self.rng = self._passing_rng
         leg = L.leg(seen_leg)
         start = before[0].copy()
-        start[:, leg] = self._toes[-2][2][leg]  # the seen leg as it stood, without velocity
+        start[:, leg] = self._recent[-2][2][leg]  # the seen leg as it stood, without velocity
         prev = start.copy() if before[1] is None else before[1].copy()
         prev[:, leg] = start[:, leg]
         self._x_prev = prev
@@ -1470,7 +1471,7 @@ class LegTracker:
         score = ll - 0.5 * (jumps / cfg.passing_sigma) ** 2
         self.passings += 1
         if score[1] > score[0]:
-            self.passings_taken += 1
+            self.passings_kept += 1
             self._last_ll, self._x_prev = b_ll, b_prev
             return xb
         self._last_ll, self._x_prev = a_ll, a_prev
@@ -1567,10 +1568,10 @@ class LegTracker:
         return lm.enforce_constraints(state[None])[0][0]
 
     def _forget_parts(self) -> None:
-        """A new particle set's hidden-part state, footprints and toe history: nothing hidden, no footprint, no toes."""
+        """A new particle set's hidden-part state, footprints and recent estimates: nothing hidden, none."""
         self._hidden = _HiddenState()
         self._footprints = _Footprints(direction=-1.0 if self.time_reversed else 1.0)
-        self._toes: list[tuple[float, FloatArray, FloatArray]] = []  # (stamp, (2, 3) toes, mean state), last frames
+        self._recent: list[tuple[float, FloatArray, FloatArray]] = []  # (stamp, (2, 3) toes, mean state) of the last frames
 
     def _initialise(self, frame: _Frame) -> None:
         self._forget_parts()

@@ -477,7 +477,7 @@ class LegTrackerNode(WalkerNode):
         out: dict[str, Any] = {} if self.bridge is None else {"bridge_held": self.bridge.held}
         if self.tracker is not None:  # frames tracked again by the passing check (`passing_jump`), and kept
             out["passing_checks"] = self.tracker.passings
-            out["passing_checks_kept"] = self.tracker.passings_taken
+            out["passing_checks_kept"] = self.tracker.passings_kept
         return out
 
     def _publish_bridged(self, released: list[tuple[Any, Any]]) -> None:
