@@ -959,10 +959,6 @@ class LegTracker:
             self._redetect_stamp = float(stamp)
             self._redetect(frame)
         pose, conf, explained, unsupported = self._estimate(frame, stamp)
-        if math.isfinite(cfg.passing_jump):
-            assert self._mean is not None
-            toes = lm.forward_kinematics(self._mean[None]).points[0, :, TOE].copy()
-            self._recent = [*self._recent[1 - _PASSING_HISTORY:], (float(stamp), toes, self._mean.copy())]
         self._unexplained_run = self._unexplained_run + 1 if 1.0 - explained > cfg.hidden_search_unexplained else 0
         # track management
         self._unsupported_run = np.where(unsupported, self._unsupported_run + 1, 0)
@@ -1394,10 +1390,10 @@ class LegTracker:
         gain = self._leg_gain()
         if cfg.partitioned or cfg.n_layers > 1:
             standing = self._passing_legs()
-            before = (x_pred, None if self._x_prev is None else self._x_prev.copy())
+            prev = None if not standing or self._x_prev is None else self._x_prev.copy()
             x = self._run_stages(frame, x_pred, gain=gain, layers=cfg.n_layers, betas=cfg.anneal_betas, final=True)
             if standing:
-                x = self._passing_check(frame, x, before, legs=standing, gain=gain)
+                x = self._passing_check(frame, x, (x_pred, prev), legs=standing, gain=gain)
         else:
             comp = self._root_compensation(x_pred) if cfg.root_compensation > 0 else None
             x, _ = self._diffuse(x_pred, np.ones(lm.STATE_DIM, dtype=bool), gain, comp)
@@ -1663,6 +1659,9 @@ class LegTracker:
         pts_body = np.einsum("p,pijk->ijk", w, points)
         mean_c, kin_mean, _ = lm.enforce_constraints(mean[None])
         self._mean = mean_c[0]
+        if math.isfinite(self.config.passing_jump):  # what the passing check reads
+            self._recent = [*self._recent[1 - _PASSING_HISTORY:],
+                            (float(stamp), kin_mean.points[0, :, TOE].copy(), self._mean.copy())]
         seg_c, rad, _ = self._cam_segments(frame, kin_mean, (0, 1))
         visibility, unsupported = self._visibility(frame, seg_c, rad)
         conf, explained = self._confidence(frame, seg_c, rad)
