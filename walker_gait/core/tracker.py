@@ -1418,10 +1418,11 @@ class LegTracker:
                 and max(p0[leg, 2], p1[leg, 2]) < FOOTPRINT_HEIGHT
                 and self._direction * (p1[leg, 0] - p0[leg, 0]) <= _PASSING_STILL]
 
-    def _passing_jump(self, state: FloatArray, seen_leg: int) -> float:
-        """m: how far the toe of ``seen_leg`` of ``state`` came forward from where it stood two frames ago."""
-        toe = lm.forward_kinematics(state[None]).points[0, seen_leg, TOE]
-        return float(self._direction * (toe[0] - self._recent[-2][1][seen_leg, 0]))
+    def _passing_jumps(self, states: FloatArray) -> FloatArray:
+        """``(K, 2)`` m: how far each leg's toe of ``states`` ``(K, 23)`` came forward from where it stood two frames
+        ago."""
+        toes = lm.forward_kinematics(states).points[:, :, TOE, 0]
+        return self._direction * (toes - self._recent[-2][1][:, 0])
 
     def _passing_check(self, frame: _Frame, x: FloatArray, before: tuple[FloatArray, FloatArray | None], *,
                        legs: list[int], gain: FloatArray) -> FloatArray:
@@ -1439,8 +1440,8 @@ class LegTracker:
         cfg = self.config
         assert self._last_ll is not None
         mean_a = self._weighted_mean(x, self._last_ll)
-        jump = {leg: self._passing_jump(mean_a, leg) for leg in legs}
-        seen_leg = max(jump, key=jump.__getitem__)
+        jump = self._passing_jumps(mean_a[None])[0]
+        seen_leg = max(legs, key=lambda leg: jump[leg])
         if jump[seen_leg] < cfg.passing_jump:
             return x
         hidden_leg = 1 - seen_leg
@@ -1463,7 +1464,7 @@ class LegTracker:
             ll = self._compare(frame, means)
         finally:
             self.rng = main_rng
-        jumps = np.array([max(self._passing_jump(m, seen_leg) - _PASSING_STILL, 0.0) for m in means])
+        jumps = np.maximum(self._passing_jumps(means)[:, seen_leg] - _PASSING_STILL, 0.0)
         score = ll - 0.5 * (jumps / cfg.passing_sigma) ** 2
         self.passings += 1
         if score[1] > score[0]:
