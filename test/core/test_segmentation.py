@@ -1125,3 +1125,31 @@ def test_bench_smoke() -> None:
     assert float(out["floor_angle_err_deg_median"]) < 0.5 and float(out["floor_height_err_mm_median"]) < 5
     assert float(out["leg_kept_pct"]) >= 98 and float(out["floor_leak_pct"]) <= 1
     assert float(out["ms_median"]) > 0
+
+
+def test_a_close_users_legs_are_not_learned_as_the_walkers_structure() -> None:
+    """A user who comes close to the walker has legs nearer than the sensor's range above the shins: the image shows
+    the shins only, without depth above them up to its top (the legs leave the view through those pixels), nothing
+    above knee height.  Those are legs, not the walker's structure: a segmenter that learns what it sees while no
+    legs are in view (``learn_without_legs``) keeps them in the foreground.  The same shins with the room seen
+    above them (low things alone in view) are learned away."""
+    rng = np.random.default_rng(7)
+    cfg = SegmenterConfig(min_part_width=0.0, static_mask=StaticMaskConfig(frames=20))
+    proj = DepthProjector(QVGA)
+    scene = scene_cached(((0.42, 0.09), (0.45, -0.07)), QVGA, bar=None, posts=())
+    room = scene_cached((), QVGA, bar=None, posts=()).depth
+    legs = scene.labels == LABEL_LEG
+    too_near = legs & (scene.depth < 0.47)  # the legs' upper part, nearer than the sensor's range
+    shins = legs & ~too_near & (scene.height > 0.05)
+    assert too_near[:2].any() and shins.sum() > 500
+    assert scene.height[legs & ~too_near].max() < 0.40  # nothing above knee height in view
+    kept = {}
+    for above in ("no depth", "room"):
+        seg = Segmenter(cfg, rng=rng, intrinsics=QVGA)
+        for i in range(45):
+            depth = noisy_depth(scene, rng)
+            if i >= 10:  # the user stood further back, then comes close
+                depth[too_near] = np.nan if above == "no depth" else room[too_near]
+            res = seg.process(depth, proj.points(depth))
+        kept[above] = float((res.mask & shins).sum() / shins.sum())
+    assert kept["no depth"] > 0.9 and kept["room"] < 0.1, kept

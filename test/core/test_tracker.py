@@ -1309,6 +1309,34 @@ def test_legs_leaving_the_image_count_as_legs_whichever_border_is_up() -> None:
     assert not tracker.legs_in_view(flipped, flipped_depth, floor)  # "up" taken from the floor, not the image
 
 
+def test_legs_nearer_than_the_sensors_range_above_the_shins_are_a_user_at_the_walker() -> None:
+    """A user close to the walker (the walker lagging behind, a user leaning on it) has thighs nearer than the
+    sensor's range: the image shows the shins, and above them pixels without depth up to its top.  The legs leave
+    the view through those pixels, so the track goes on (with the walker lagging 0.6-0.9 s behind its user, the
+    track ended for half a second at every close approach, DEVELOPERS.md, seventy-third session); where the same
+    rows have depth (the floor, the room: a wheel's view), the foreground shows no legs and the track ends after
+    ``lost_frames``."""
+    from walker_gait.bench.tracker import render_frame
+
+    floor = FloorPlane.from_camera_pose(height=0.70, pitch=0.90)
+    fr = render_frame(_standing(1)[0], intrinsics=KINECT, floor=floor, mounting="facing_user",
+                      rng=np.random.default_rng(1))
+    row = int(0.15 * KINECT.height)
+    near = np.zeros(fr.depth.shape, bool)
+    near[:row] = np.isfinite(fr.depth[:row])  # the legs' pixels in the top rows: nearer than the sensor's range
+    cut = np.where(near, np.nan, fr.depth)
+    kept = fr.points[np.round(KINECT.project(fr.points)[:, 1]) >= row].astype(np.float64)
+    tracker = LegTracker(DEFAULT, KINECT, rng=np.random.default_rng(0))
+    assert not tracker.legs_in_view(kept, cut, floor)
+    assert tracker.legs_in_view(kept, cut, floor, near)
+    for no_depth, ends in ((near, False), (None, True)):
+        tr = LegTracker(FAST, KINECT, rng=np.random.default_rng(0))
+        assert tr.update(stamp=0.0, points=fr.points, depth_fg=fr.depth, floor=floor).status != TrackStatus.NO_USER
+        statuses = [tr.update(stamp=0.1 * (k + 1), points=kept, depth_fg=cut, floor=floor, no_depth=no_depth).status
+                    for k in range(FAST.lost_frames + 3)]
+        assert (TrackStatus.NO_USER in statuses) == ends, statuses
+
+
 def test_presence_config_is_validated() -> None:
     for bad in ({"presence_height": -0.1}, {"presence_share": 1.5}, {"presence_band": 0.0}, {"presence_width": -1.0}):
         with pytest.raises(ValueError):

@@ -1074,7 +1074,8 @@ class StaticMaskConfig:
     frames as well, so a user who stood still from the start is not learned before walking off."""
     learn_without_legs: bool = True
     """Frames whose foreground (where the box can reach) shows no legs count as moving frames: nothing rises
-    above knee height or leaves the image through its top border (the tracker's presence test,
+    above knee height or leaves the image through its top border, directly or through pixels without depth (a
+    close user's legs nearer than the sensor's range; the tracker's presence test,
     :func:`walker_gait.core.presence.legs_in_view`), so what is there is not a user but the walker's own structure
     (a rear wheel waiting with the walker for its user), learned in ``frames`` frames instead of being taken for a
     pair of legs when the user walks in."""
@@ -1632,7 +1633,7 @@ class Segmenter:
             heights = h[mask]  # the height test first: it settles most frames without the foreground image
             self._no_legs = not (legs_above(heights) or legs_in_view(
                 heights, np.where(mask.reshape(shape), z, np.float32(np.nan)), up=floor.normal,
-                intrinsics=self.intrinsics))
+                intrinsics=self.intrinsics, no_depth=no_depth))
         return Segmentation(
             mask=mask.reshape(shape),
             points=fg,

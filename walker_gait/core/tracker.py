@@ -311,7 +311,7 @@ class TrackerConfig:
     pelvis_prior_sigma: tuple[float, float] = (math.inf, math.inf)  # m, Gaussian prior (forward, lateral) on the pelvis (mid-hip) over the centre of the feet (mean of heels and toes): the base of support (inf = none, paper)
     # track management
     min_fg_points: int = 60  # fewer foreground points = no user
-    presence_height: float = 0.0  # m; > 0: the foreground is a user only if it shows legs: `presence_share` of its points higher than this, or a part at least `presence_width` wide in the band along the image border that is "up" (else no user, a track ending after `lost_frames` such frames in a row: a walker's wheel alone in view; 0 = off, paper)
+    presence_height: float = 0.0  # m; > 0: the foreground is a user only if it shows legs: `presence_share` of its points higher than this, or a part at least `presence_width` wide in the band along the image border that is "up" or reaching it through pixels without depth (a close user's legs nearer than the sensor's range; with `no_depth_unknown`) (else no user, a track ending after `lost_frames` such frames in a row: a walker's wheel alone in view; 0 = off, paper)
     presence_share: float = 0.02  # fraction of the foreground points (at least 10) above `presence_height` that shows legs
     presence_band: float = 0.04  # width of the image border band (fraction of the image) through which legs leave the view
     presence_width: float = 0.04  # m, widest foreground part in that band that shows a leg (a walker's tube is thinner)
@@ -910,7 +910,7 @@ class LegTracker:
                 return self._coast(stamp)
             self.reset()
             return LegPose.no_user(stamp)
-        legs = self.legs_in_view(pts, depth, floor)
+        legs = self.legs_in_view(pts, depth, floor, no_depth)
         frame = None
         if holding:
             frame = self._prepare(pts, depth, floor, no_depth)
@@ -986,7 +986,8 @@ class LegTracker:
         return pose
 
     # ------------------------------------------------------------------ internals
-    def legs_in_view(self, points: FloatArray, depth_fg: NDArray[np.floating], floor: FloorPlane) -> bool:
+    def legs_in_view(self, points: FloatArray, depth_fg: NDArray[np.floating], floor: FloorPlane,
+                     no_depth: NDArray[np.bool_] | None = None) -> bool:
         """Whether the foreground shows legs rather than low things alone (``presence_height``; always
         true when it is 0).
 
@@ -995,14 +996,18 @@ class LegTracker:
         floor, or a foreground part at least ``presence_width`` wide (metres, at its depth) in the
         ``presence_band`` of the image along the border that is "up" for this camera (the floor
         normal projected into the image: the top rows for an upright camera, the bottom rows for one
-        mounted upside down).  A walker's wheel, in view while its user is away, is neither: 0.3 m high
-        at most, its frame tubes 1-2 cm wide where they leave the image.
+        mounted upside down), or reaching that border through pixels without depth (``no_depth``, as
+        :meth:`update` takes it): the legs of a user close to the walker are nearer than the sensor's
+        range above the shins (with the walker lagging behind its user, a track ended for half a second
+        at every close approach).  A walker's wheel, in view while its user is away, is none of these:
+        0.3 m high at most, its frame tubes 1-2 cm wide where they leave the image, the floor and the
+        room above it.
         """
         cfg = self.config
         if cfg.presence_height <= 0:
             return True
         return legs_in_view(floor.height(points), depth_fg, up=floor.normal, intrinsics=self.intrinsics,
-                            test=self._presence)
+                            test=self._presence, no_depth=no_depth)
 
     def _coast(self, stamp: float) -> LegPose:
         """The last pose held through a frame that cannot be tracked (DEGRADED, confidence 0; ``coast_frames``)."""
