@@ -23,7 +23,7 @@ from typing import Any
 import numpy as np
 
 SCENARIOS = ("normal", "slow_elderly", "baggy_trousers", "occlusion", "asymmetric", "stop_and_go", "absent_start",
-             "different_camera")
+             "different_camera", "walker_lag")
 CUES = ("3d", "2d", "combined")
 
 

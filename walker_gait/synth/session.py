@@ -53,6 +53,7 @@ SCENARIOS: tuple[str, ...] = (
     "stop_and_go",
     "absent_start",
     "different_camera",
+    "walker_lag",
 )
 
 CAMERAS: dict[str, dict[str, object]] = {
@@ -182,6 +183,9 @@ _PRESETS: dict[str, dict[str, object]] = {
     "stop_and_go": {"walk_bout": (2.5, 4.0), "stand_bout": (1.2, 2.5)},
     "absent_start": {"absent_start": (2.0, 3.0), "clutter": True},
     "different_camera": {"camera": ("realsense_424x240", "kinect_v2_512x424")},
+    # the walker follows its user sluggishly (a user who lets it lag, or leans on it less): setting off, the user walks
+    # up close to it, thighs nearer than the sensor's range and a foot at or below the image's bottom edge
+    "walker_lag": {"walker_lag": (0.6, 0.9)},
 }
 
 
