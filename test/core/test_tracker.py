@@ -1329,23 +1329,12 @@ def test_legs_nearer_than_the_sensors_range_above_the_shins_are_a_user_at_the_wa
     tracker = LegTracker(DEFAULT, KINECT, rng=np.random.default_rng(0))
     assert not tracker.legs_in_view(kept, cut, floor)
     assert tracker.legs_in_view(kept, cut, floor, near)
-    dt = 1.0 / 30.0
     for no_depth, ends in ((near, False), (None, True)):
         tr = LegTracker(FAST, KINECT, rng=np.random.default_rng(0))
-        searched = []
-        fresh_search = tr._redetect
-        tr._redetect = lambda frame: searched.append(tr._stamp) or fresh_search(frame)  # type: ignore[method-assign]
         assert tr.update(stamp=0.0, points=fr.points, depth_fg=fr.depth, floor=floor).status != TrackStatus.NO_USER
-        n = FAST.lost_frames + 3
-        statuses = [tr.update(stamp=dt * (k + 1), points=kept, depth_fg=cut, floor=floor, no_depth=no_depth).status
-                    for k in range(n)]
+        statuses = [tr.update(stamp=0.1 * (k + 1), points=kept, depth_fg=cut, floor=floor, no_depth=no_depth).status
+                    for k in range(FAST.lost_frames + 3)]
         assert (TrackStatus.NO_USER in statuses) == ends, statuses
-        if not ends:
-            # back in full view: searched afresh at once (a track held on the shins alone may have drifted), not a
-            # second after the last search
-            assert searched == [] and dt * (n + 1) < FAST.redetect_every_s
-            tr.update(stamp=dt * (n + 1), points=fr.points, depth_fg=fr.depth, floor=floor, no_depth=near & False)
-            assert searched == [pytest.approx(dt * (n + 1))]
 
 
 def test_presence_config_is_validated() -> None:

@@ -16,8 +16,7 @@ lives in the floor-aligned *body* frame of :mod:`walker_gait.core.leg_model`):
    "up" for the camera, directly or (``no_depth_unknown``) through pixels without depth: a close user's thighs are
    nearer than the sensor's range (:meth:`LegTracker.legs_in_view`); a walker's rear wheel in view while its user is
    away does none of these, and without the check the tracker fitted both legs to it and the gait analyzer
-   counted steps from their jitter.  A track held through frames whose legs left the view only through pixels
-   without depth is searched afresh (``redetect_every_s``'s search) on the first frame that shows them in full;
+   counted steps from their jitter;
 2. (re-)initialisation when there is no particle set: the foreground (body frame) is split
    into two leg blobs along the anatomical left axis (2-means on y; left = +y, so identity
    is fixed by geometry), hip positions are fitted from the blobs and particles are sampled
@@ -798,7 +797,6 @@ class LegTracker:
         self.status = TrackStatus.NO_USER
         self._coasted = 0
         self._no_legs_run = 0  # consecutive frames whose foreground showed no legs (`legs_in_view`)
-        self._close = False  # the last frame's legs left the view only through pixels without depth (a close user)
         self._last_pose: LegPose | None = None
 
     @property
@@ -912,11 +910,7 @@ class LegTracker:
                 return self._coast(stamp)
             self.reset()
             return LegPose.no_user(stamp)
-        legs = self.legs_in_view(pts, depth, floor)
-        close = False
-        if not legs and no_depth is not None:
-            # a user close to the walker: the legs nearer than the sensor's range above the shins
-            legs = close = self.legs_in_view(pts, depth, floor, no_depth)
+        legs = self.legs_in_view(pts, depth, floor, no_depth)
         frame = None
         if holding:
             frame = self._prepare(pts, depth, floor, no_depth)
@@ -959,11 +953,6 @@ class LegTracker:
         else:
             self._logw = self._evaluate(frame, self._x, legs=(0, 1), ref=None)
         self._last_ll = None
-        if self._close and legs and not close and not searching:
-            # the legs are back in full view after a stretch in which they were partly out of the sensor's range
-            # (a close user, the track held on what was left): search afresh now, not at the next turn
-            self._redetect_stamp = math.nan
-        self._close = close
         if searching:
             self._redetect_stamp = float(stamp)
         elif cfg.redetect_every_s > 0 and not abs(float(stamp) - self._redetect_stamp) < cfg.redetect_every_s:
