@@ -59,9 +59,9 @@ def border_width(depth_fg: NDArray[np.floating], *, up: NDArray[np.floating], in
     """Width (m) of the widest foreground part in the band (``band`` of the image) along the image border that is
     "up": the floor normal ``up`` (camera frame) projected into the image at the optical axis.  ``depth_fg``:
     ``(H, W)`` foreground depth (m), NaN or 0 elsewhere.  With ``no_depth`` ``(H, W)`` (pixels without a depth
-    measurement that are not background: nearer than the sensor's range, say) a foreground pixel with nothing but
-    such pixels between it and that border also leaves the view there: a leg nearer than the sensor's range above
-    its shin."""
+    measurement that are not background: nearer than the sensor's range, say) a foreground pixel with (nearly) nothing
+    but such pixels between it and that border (at most ``_THROUGH_KNOWN`` of them with depth) also leaves the view
+    there: a leg nearer than the sensor's range above its shin."""
     oriented, focal = _up_first(np.asarray(depth_fg), up=up, intrinsics=intrinsics)
     b = max(1, int(round(band * oriented.shape[0])))
     strip = oriented[:b]
@@ -101,6 +101,9 @@ def legs_in_view(heights: NDArray[np.floating], depth_fg: NDArray[np.floating], 
     ``test.width`` wide (metres, at its depth) in the ``test.band`` of the image along the border that is "up"
     (:func:`border_width`: the top rows for an upright camera, the bottom rows for one mounted upside down), or
     reaching it through pixels without depth (``no_depth``, see :func:`border_width`)."""
-    if legs_above(heights, test):
+    if legs_above(heights, test) or border_width(depth_fg, up=up, intrinsics=intrinsics, band=test.band) >= test.width:
         return True
-    return border_width(depth_fg, up=up, intrinsics=intrinsics, band=test.band, no_depth=no_depth) >= test.width
+    # the way out through pixels without depth only where the border alone does not settle it (a close user): it
+    # reads the whole image
+    return no_depth is not None and border_width(depth_fg, up=up, intrinsics=intrinsics, band=test.band,
+                                                 no_depth=no_depth) >= test.width
