@@ -66,12 +66,13 @@ def border_width(depth_fg: NDArray[np.floating], *, up: NDArray[np.floating], in
     b = max(1, int(round(band * oriented.shape[0])))
     strip = oriented[:b]
     with np.errstate(invalid="ignore"):
-        fg = np.isfinite(oriented) & (oriented > 0)
-        z = np.where(fg[:b], strip, np.inf).min(axis=0)
+        z = np.where(np.isfinite(strip) & (strip > 0), strip, np.inf).min(axis=0)
     if no_depth is not None:
         unknown = _up_first(np.asarray(no_depth, dtype=bool), up=up, intrinsics=intrinsics)[0]
         if unknown.shape != oriented.shape:
             raise ValueError(f"no_depth shape {unknown.shape} does not match depth_fg {oriented.shape}")
+        with np.errstate(invalid="ignore"):
+            fg = np.isfinite(oriented) & (oriented > 0)  # the whole image only here: the band settles most frames
         first = np.argmax(fg, axis=0)  # per column, the first foreground pixel from the border
         cols = np.arange(oriented.shape[1])
         # ... with (nearly) nothing but pixels without depth before it (the sensor's speckle aside)
