@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 
 from walker_gait.io.bags import Recording, RecordingError, RecordingWarning
-from walker_gait.pipeline import PipelineOptions, PreparedFrame, process_recording
+from walker_gait.pipeline import PipelineOptions, PreparedFrame, ProcessResult, process_recording
 
 
 @pytest.fixture(scope="module")
@@ -364,6 +364,7 @@ def test_two_passes_merge_the_forward_pass_with_a_backward_one(short_session: Pa
     meta_two = json.loads((tmp_path / "two" / "summary.json").read_text())["metadata"]
     assert meta_one["passes"] == "forward" and meta_one["frames_from_backward_pass"] is None
     assert meta_two["passes"] == "both" and 0 <= meta_two["frames_from_backward_pass"] <= 75
+    assert meta_one["frames_legs_exchanged_back"] is None and 0 <= meta_two["frames_legs_exchanged_back"] <= 75
     assert "tracker_backward" in meta_two["mean_stage_ms"] and "tracker_backward" not in meta_one["mean_stage_ms"]
     assert two.passes == "both" and two.frames_from_backward_pass == meta_two["frames_from_backward_pass"]
     assert "backward" in two.describe() and "one pass" in one.describe()
@@ -399,7 +400,11 @@ def test_two_passes_merge_the_forward_pass_with_a_backward_one(short_session: Pa
     # (core.smoothing.reported_poses); the analyzer reads the merged ones
     from walker_gait.core.smoothing import merge_passes, reported_poses
 
-    merged = merge_passes(list(fin.passes)).poses
+    merged_track = merge_passes(list(fin.passes))
+    merged = merged_track.poses
+    assert merged_track.exchanged is not None
+    assert meta_two["frames_legs_exchanged_back"] == fin.exchanged_frames == int(merged_track.exchanged.sum())
+    assert two.frames_legs_exchanged_back == fin.exchanged_frames
     shown = reported_poses(merged, hide_below=proc.options.tracker.hide_below, max_gap_s=proc.options.bridge_hidden_s,
                            lowpass_hz=proc.options.report_lowpass_hz, floors=[r.floor for r in fin.results],
                            pelvis_window_s=proc.options.report_pelvis_window_s, mounting=proc.options.mounting)
@@ -658,3 +663,13 @@ def test_the_reported_lengths_say_whether_the_shoes_were_under_a_trouser_hem() -
         row = _metadata_table({"reported_segment_lengths_m": lengths}, [])
         assert ("under a trouser hem" in row) is hem
     assert _reported_lengths([LegPose.no_user(0.0)], placed=True) is None
+
+
+def test_the_tracking_note_names_the_frames_whose_exchanged_legs_were_taken_back() -> None:
+    result = ProcessResult(input=Path("walk.mcap"), out_dir=Path("out"), frames=100, skipped={}, steps=[], events=[],
+                           poses=[], summary={}, wall_s=1.0, timings_ms={}, files=[], passes="both",
+                           frames_from_backward_pass=40, frames_legs_exchanged_back=7)
+    assert "40 of 100 frames" in result.tracking_note()
+    assert "exchanged taken back on 7 frames" in result.tracking_note()
+    assert "exchanged" not in dataclasses.replace(result, frames_legs_exchanged_back=0).tracking_note()
+    assert "exchanged" not in dataclasses.replace(result, passes="forward").tracking_note()

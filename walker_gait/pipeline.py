@@ -305,6 +305,7 @@ class Finished:
     backward_share: float = math.nan  # "both": fraction of the frames whose pose came from the backward pass
     passes: tuple[PassTrack, ...] = ()  # "both": the forward and backward passes that were merged (for re-merging)
     unconfirmed_steps: int | None = None  # "both": steps doubted because the passes alone did not both see them alike
+    exchanged_frames: int | None = None  # "both": frames whose pass's legs the merge took exchanged back (merge_passes)
 
 
 class FrameProcessor:
@@ -551,6 +552,7 @@ class FrameProcessor:
         analyzer's last events and steps."""
         results: list[FrameResult] = []
         share = math.nan
+        exchanged: int | None = None
         kept: tuple[PassTrack, ...] = ()
         if self._two_way and self._fwd:
             from walker_gait.core.gait import GaitAnalyzer
@@ -581,6 +583,7 @@ class FrameProcessor:
             backward = wait_for_both_feet(backward, other=forward)
             merged = merge_passes([forward, backward])
             share, kept = merged.share(1), (forward, backward)
+            exchanged = int(merged.exchanged.sum()) if merged.exchanged is not None else 0
             # the analyzer reads the merged track as tracked (its confidences know a hidden foot's held pose for what
             # it is); the poses reported have the hidden feet's stretches bridged and are low-passed
             floors = [f[3] for f in fwd]
@@ -617,7 +620,7 @@ class FrameProcessor:
                 r.events, ne = all_ev[ne:ne + len(r.events)], ne + len(r.events)
                 r.steps, ns = all_st[ns:ns + len(r.steps)], ns + len(r.steps)
             return Finished(results=results, events=all_ev[ne:], steps=all_st[ns:], backward_share=share, passes=kept,
-                            unconfirmed_steps=doubted)
+                            unconfirmed_steps=doubted, exchanged_frames=exchanged)
         events, steps = self.analyzer.finish()
         return Finished(results=results, events=list(events), steps=list(steps), backward_share=share, passes=kept)
 
@@ -642,6 +645,7 @@ class ProcessResult:
     passes: str = "forward"
     frames_from_backward_pass: int | None = None  # passes "both": frames whose pose came from the backward pass
     steps_unconfirmed: int | None = None  # passes "both": steps doubted as the two passes did not both see them alike
+    frames_legs_exchanged_back: int | None = None  # passes "both": frames whose legs a pass had exchanged, taken back
 
     def tracking_note(self) -> str:
         """How the legs were tracked, in words."""
@@ -652,6 +656,8 @@ class ProcessResult:
         if self.steps_unconfirmed:
             note += (f"; {self.steps_unconfirmed} of {len(self.steps)} steps not seen alike by both passes (low "
                      "confidence)")
+        if self.frames_legs_exchanged_back:
+            note += f"; left and right legs a pass had exchanged taken back on {self.frames_legs_exchanged_back} frames"
         return note
 
     def describe(self) -> str:
@@ -1147,6 +1153,7 @@ def process_recording(path: Path, out_dir: Path, *, options: PipelineOptions | N
         "passes": options.passes,
         "frames_from_backward_pass": (round(finished.backward_share * processed) if two_way and processed else None),
         "steps_unconfirmed": finished.unconfirmed_steps if two_way else None,
+        "frames_legs_exchanged_back": finished.exchanged_frames if two_way else None,
         "bridge_hidden_s": options.bridge_hidden_s if two_way else None,
         "report_lowpass_hz": options.report_lowpass_hz if two_way else None,
         "report_pelvis_window_s": options.report_pelvis_window_s,
@@ -1199,7 +1206,8 @@ def process_recording(path: Path, out_dir: Path, *, options: PipelineOptions | N
                          events=events, poses=poses, summary=summary, wall_s=time.perf_counter() - t_start,
                          timings_ms=timings, files=files, passes=options.passes,
                          frames_from_backward_pass=metadata["frames_from_backward_pass"],
-                         steps_unconfirmed=metadata["steps_unconfirmed"])
+                         steps_unconfirmed=metadata["steps_unconfirmed"],
+                         frames_legs_exchanged_back=metadata["frames_legs_exchanged_back"])
 
 
 def write_tracked_mcap(path: Path, *, frames: list[tuple[int, str, FrameResult]], events: list[GaitEvent],

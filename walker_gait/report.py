@@ -658,6 +658,7 @@ _META_LABELS: tuple[tuple[str, str], ...] = (
     ("frames_processed", "Frames processed"),
     ("frames_from_backward_pass", "Frames from the backward pass"),
     ("steps_unconfirmed", "Steps the two passes did not confirm"),
+    ("frames_legs_exchanged_back", "Frames whose legs a pass had exchanged (taken back)"),
     ("report_pelvis_window_s", "Hips placed over the feet, window (s; 0 = as tracked)"),
     ("leg_length_m", "Leg length given (m)"),
     ("reported_segment_lengths_m", "Reported lengths (m, median): thigh, calf, shoe; hip height"),

@@ -12,6 +12,7 @@ from walker_gait.core import leg_model as lm
 from walker_gait.core.smoothing import (
     AGREE_M,
     BRIDGE_FIT_FRAMES,
+    IDENTITY_COST_PER_M,
     BRIDGE_MAX_S,
     BRIDGE_POINTS,
     LiveBridge,
@@ -26,10 +27,13 @@ from walker_gait.core.smoothing import (
     lowpass_poses,
     check_against_passes,
     confirm_steps,
+    crossing,
+    identity_flips,
     merge_passes,
     refine_event_times,
     reported_poses,
     score_passes,
+    swap_sides,
     track_pass,
     wait_for_both_feet,
 )
@@ -168,6 +172,130 @@ def test_poses_whose_feet_agree_are_averaged_and_others_kept_apart() -> None:
     # a pass without a pose, or a chosen pose without feet, leaves the chosen pose as it is
     empty = LegPose(stamp=1.0, points=np.full((2, 5, 3), np.nan))
     assert blend_poses([a, empty], 0) is a and blend_poses([empty, a], 0) is empty
+
+
+def _walking_points(t: float) -> np.ndarray:
+    """(2, 5, 3) leg points (camera frame: x across, y down, z depth) of legs walking at 1 Hz: the left leg (0) on
+    +x, the right one on -x, the feet swinging in depth in antiphase."""
+    pts = np.zeros((2, 5, 3))
+    for leg, side in ((0, 1.0), (1, -1.0)):
+        swing = 0.25 * side * np.sin(2 * np.pi * t)
+        pts[leg, :, 0] = side * np.array([0.09, 0.08, 0.06, 0.06, 0.07])  # hip, knee, ankle, heel, toe
+        pts[leg, :, 1] = [-0.4, 0.0, 0.4, 0.45, 0.45]
+        pts[leg, :, 2] = 1.0 + np.array([0.0, 0.5, 1.0, 1.0, 1.0]) * swing + np.array([0, 0, 0, 0.05, -0.15])
+    return pts
+
+
+def _walking_pose(t: float, *, exchanged: bool = False) -> LegPose:
+    pose = LegPose(stamp=t, points=_walking_points(t), angles=np.arange(12.0), segments=np.zeros((2, 3, 2, 3)),
+                   radii=np.stack([np.full((3, 2), 0.05), np.full((3, 2), 0.06)]),
+                   visibility=np.array([[1.0, 0.9, 0.8], [0.7, 0.6, 0.5]]), shoe_rise=np.array([0.1, 0.2]),
+                   shoe_turn=np.array([0.01, -0.02]), status=TrackStatus.TRACKING, confidence=1.0)
+    return swap_sides(pose) if exchanged else pose
+
+
+def test_swap_sides_exchanges_the_legs_below_the_hips_and_back() -> None:
+    pose = _walking_pose(0.2)
+    sw = swap_sides(pose)
+    np.testing.assert_array_equal(sw.points[:, 0], pose.points[:, 0])  # each hip keeps its place
+    np.testing.assert_array_equal(sw.points[:, 1:], pose.points[::-1, 1:])
+    np.testing.assert_array_equal(sw.angles, np.r_[np.arange(6.0, 12.0), np.arange(6.0)])
+    np.testing.assert_array_equal(sw.radii, pose.radii[::-1])
+    np.testing.assert_array_equal(sw.visibility, pose.visibility[::-1])
+    np.testing.assert_array_equal(sw.shoe_rise, [0.2, 0.1])
+    np.testing.assert_array_equal(sw.shoe_turn, [-0.02, 0.01])
+    np.testing.assert_array_equal(sw.segments[:, 0, 0], pose.points[:, 0])  # the thighs start at the hips kept
+    back = swap_sides(sw)
+    np.testing.assert_array_equal(back.points, pose.points)
+    np.testing.assert_array_equal(back.angles, pose.angles)
+    np.testing.assert_array_equal(back.visibility, pose.visibility)
+    empty = LegPose.no_user(1.0)
+    assert swap_sides(empty) is empty
+
+
+def test_crossing_measures_ankles_on_the_other_hips_side() -> None:
+    pose = _walking_pose(0.0)
+    assert crossing(pose.points) == 0.0
+    assert crossing(swap_sides(pose).points) == pytest.approx(0.12)  # ankles 6 cm either side, exchanged
+    assert crossing(np.full((2, 5, 3), np.nan)) == 0.0
+    assert crossing(np.stack([pose.points, swap_sides(pose).points])).shape == (2,)
+
+
+def test_identity_flips_charge_only_legs_that_change_places() -> None:
+    t = np.arange(12) / 30.0
+    steady = np.stack([_walking_points(s) for s in t])
+    flipped = steady.copy()
+    flipped[6:] = np.stack([swap_sides(_walking_pose(s)).points for s in t[6:]])
+    cand = np.stack([flipped, np.stack([swap_sides(LegPose(stamp=0.0, points=p)).points for p in flipped])], axis=1)
+    charge = identity_flips(cand, [1, 0])
+    assert charge.shape == (12, 2, 2)
+    moved = np.zeros((12, 2, 2), dtype=bool)
+    moved[1:, 0, 1] = moved[1:, 1, 0] = True  # a change of labelling between two frames jumps the legs ...
+    moved[6] = ~moved[6]  # ... except across the flip, where staying on one does
+    assert np.all(charge[moved] > 0.05) and np.all(charge[~moved] == 0.0)
+    assert np.all(identity_flips(np.stack([steady, steady], axis=1), [1, 0]) == 0.0)  # legs that move as legs do
+    nan = cand.copy()
+    nan[5] = np.nan
+    assert np.all(identity_flips(nan, [1, 0])[5:7] == 0.0)  # a frame without points charges nothing either side
+
+
+def _walking_pass(n: int, scores: np.ndarray, exchanged: np.ndarray) -> PassTrack:
+    return _track([_walking_pose(i / 30.0, exchanged=bool(exchanged[i])) for i in range(n)], scores)
+
+
+def _left_foot(pose: LegPose) -> np.ndarray:
+    return pose.points[0, 2:5]
+
+
+def test_the_merge_takes_back_legs_that_a_pass_exchanged() -> None:
+    assert IDENTITY_COST_PER_M == 100.0
+    n = 20
+    stretch = np.zeros(n, dtype=bool)
+    stretch[8:14] = True
+    right = _walking_pass(n, np.zeros(n), np.zeros(n, dtype=bool))
+    # the other pass exchanges its legs for six frames, where it explains the data far better
+    wrong = _walking_pass(n, np.where(stretch, 30.0, -1.0), stretch)
+    old = merge_passes([right, wrong], identity_cost=0.0)
+    assert np.all(old.choice[stretch] == 1)  # before: the exchanged legs taken as they were
+    assert not np.allclose(_left_foot(old.poses[10]), _left_foot(right.poses[10]))
+    merged = merge_passes([right, wrong])
+    assert np.all(merged.choice[stretch] == 1) and merged.exchanged is not None
+    np.testing.assert_array_equal(merged.exchanged, stretch)  # ... now taken back
+    for t in range(n):
+        np.testing.assert_allclose(merged.poses[t].points, right.poses[t].points, atol=1e-12)
+        assert crossing(merged.poses[t].points) == 0.0
+
+
+def test_a_pass_that_exchanges_its_legs_once_is_merged_with_its_legs_uncrossed() -> None:
+    n = 20
+    before = np.arange(n) < 7  # crossed legs until frame 7, then the tracker's legs as they should be
+    single = _walking_pass(n, np.zeros(n), before)
+    merged = merge_passes([single])
+    np.testing.assert_array_equal(merged.exchanged, before)
+    truth = [_walking_pose(i / 30.0) for i in range(n)]
+    for t in range(n):
+        np.testing.assert_allclose(merged.poses[t].points, truth[t].points, atol=1e-12)
+    # and the other way round: crossed from frame 7 on
+    after = _walking_pass(n, np.zeros(n), ~before)
+    np.testing.assert_array_equal(merge_passes([after]).exchanged, ~before)
+
+
+def test_passes_without_an_exchange_merge_as_without_the_identity_cost() -> None:
+    n = 40
+    rng = np.random.default_rng(3)
+    passes = []
+    for k in range(2):
+        poses = []
+        for i in range(n):
+            pose = _walking_pose(i / 30.0)
+            poses.append(replace(pose, points=pose.points + rng.normal(0.0, 0.01 + 0.03 * k, (2, 5, 3))))
+        passes.append(_track(poses, rng.normal(0.0, 2.0, n)))
+    plain = merge_passes(passes, identity_cost=0.0)
+    merged = merge_passes(passes)
+    np.testing.assert_array_equal(merged.choice, plain.choice)
+    assert not merged.exchanged.any()
+    for a, b in zip(merged.poses, plain.poses):
+        np.testing.assert_array_equal(a.points, b.points)
 
 
 def _seen(stamp: float, left: float, right: float) -> LegPose:

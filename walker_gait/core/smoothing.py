@@ -70,6 +70,21 @@ SWITCH_COST_PER_M = 100.0
 exchanged legs (40 cm) 40.  On synthetic sessions (16 sessions, forty-third session) 20, 100 and 500 gave heel errors
 within 0.13 cm of each other, all far better than either pass alone."""
 
+IDENTITY_COST_PER_M = 100.0
+"""Log-likelihood units that the merged track pays per metre by which its feet (ankle, heel, toe of both legs, mean
+distance) move further from one frame to the next than they would with the later frame's legs exchanged
+(:func:`identity_flips`): a track whose model legs change places between two frames (a pass that exchanged its legs
+as one passed the other, or took them back) pays for the jump (an exchange of feet 30 cm apart, about 25); legs
+that move as legs do pay nothing.  The passes' scores do not tell exchanged legs apart (the model's shape is shared
+by both legs, so the depth data fit both labellings alike); their continuity does.  On the synthetic sweep sets
+(seventy-fourth session) the merge had kept a pass's exchanged legs in 3 of 64 sessions; see
+:func:`merge_passes`."""
+
+CROSSING_TIE_BREAK_PER_M = 1e-3
+"""Log-likelihood units a merged frame pays per metre by which its ankles cross (:func:`crossing`): nothing but
+a tie-break between a pass's two labellings (:func:`merge_passes`), which score alike, so that a stretch with no
+exchange in it keeps the labelling whose feet stand on their hips' sides."""
+
 AGREE_M = (0.04, 0.10)
 """Mean distance (m) between two passes' feet (ankle, heel, toe of both legs) below which :func:`blend_poses` averages
 them with equal weights, and above which it keeps the chosen pass alone (linear between).  On synthetic sessions
@@ -174,6 +189,7 @@ class MergedTrack:
     poses: list[LegPose]  # the chosen pass's pose per frame, in recording order
     choice: IntArray  # (T,) index of the pass chosen per frame
     scores: FloatArray  # (T, K) each pass's log likelihood per frame (-inf: no pose)
+    exchanged: NDArray[np.bool_] | None = None  # (T,) the chosen pass's legs taken exchanged (swap_sides); None: none
 
     def share(self, k: int) -> float:
         """Fraction of the frames taken from pass ``k``."""
@@ -230,7 +246,8 @@ def score_passes(scorer: Scorer, frame: TrackerFrame, states: Sequence[FloatArra
     return out
 
 
-def best_path(scores: FloatArray, points: FloatArray, *, switch_cost: float = SWITCH_COST_PER_M) -> IntArray:
+def best_path(scores: FloatArray, points: FloatArray, *, switch_cost: float = SWITCH_COST_PER_M,
+              transition: FloatArray | None = None) -> IntArray:
     """The pass per frame that maximises the summed ``scores`` less the switches' costs (Viterbi).
 
     Args:
@@ -239,6 +256,8 @@ def best_path(scores: FloatArray, points: FloatArray, *, switch_cost: float = SW
         points: ``(T, K, ..., 3)`` the passes' leg points (any frame); NaN where a pass has none.
         switch_cost: cost per metre of the mean distance between the two passes' points on the frame where the
             path switches (0 where they are not both there).
+        transition: ``(T, K, K)`` a further cost of going from pass ``i`` on frame ``t - 1`` to pass ``j`` on frame
+            ``t`` (``[t, i, j]``; row 0 unused), staying included; ``None``: none.
 
     Ties go to the lower pass index (the forward pass first), so equal passes give pass 0 throughout.
     """
@@ -259,6 +278,11 @@ def best_path(scores: FloatArray, points: FloatArray, *, switch_cost: float = SW
     ok = np.isfinite(d)
     count = ok.sum(axis=-1)
     jump = np.where(ok, d, 0.0).sum(axis=-1) / np.maximum(count, 1) * switch_cost  # (T, from, to); 0 if not both there
+    if transition is not None:
+        extra = np.asarray(transition, dtype=np.float64)
+        if extra.shape != (t_n, k_n, k_n):
+            raise ValueError(f"transition must be (T, K, K) = {(t_n, k_n, k_n)}, got {extra.shape}")
+        jump = jump + np.where(np.isfinite(extra), extra, 0.0)
     acc = s[0].copy()
     back = np.zeros((t_n, k_n), dtype=np.intp)
     for t in range(1, t_n):
@@ -309,22 +333,119 @@ def wait_for_both_feet(track: PassTrack, *, other: PassTrack | None = None,
     return dataclasses.replace(track, poses=poses, scores=np.where(keep, track.scores, -np.inf))
 
 
+def swap_sides(pose: LegPose) -> LegPose:
+    """``pose`` with its legs' identities exchanged below the hips: each hip keeps its place and takes the other
+    leg's knee, ankle, heel and toe, with that leg's joint angles, radii, visibility and shoe measures (the thigh's
+    segment runs from the hip kept to the knee taken).  The tracker's state keeps each hip on its own side, so a
+    tracker that took one leg for the other crossed its legs below the hips; this uncrosses them.  Applied twice
+    it gives ``pose`` back.  A pose without all its points is returned as it is."""
+    if not _has_points(pose):
+        return pose
+    old = np.asarray(pose.points, dtype=np.float64)
+    pts = old.copy()
+    pts[:, KNEE:] = old[::-1, KNEE:]
+
+    def flipped(a: FloatArray | None) -> FloatArray | None:
+        return None if a is None else np.array(np.asarray(a)[::-1], copy=True)
+
+    segs = pose.segments
+    if segs is not None and np.shape(segs) == (2, 3, 2, 3):
+        segs = np.array(np.asarray(segs, dtype=np.float64)[::-1], copy=True)
+        segs[:, 0, 0] = pts[:, HIP]
+    angles = np.asarray(pose.angles, dtype=np.float64)
+    half = angles.shape[-1] // 2
+    angles = np.concatenate([angles[half:], angles[:half]]) if angles.shape[-1] == 2 * half else angles.copy()
+    return dataclasses.replace(pose, points=pts, angles=angles, segments=segs, radii=flipped(pose.radii),
+                               visibility=flipped(pose.visibility), shoe_rise=flipped(pose.shoe_rise),
+                               shoe_turn=flipped(pose.shoe_turn), heel_tracked=flipped(pose.heel_tracked))
+
+
+def _swapped_points(points: FloatArray) -> FloatArray:
+    """``(..., 2, 5, 3)`` leg points with the legs exchanged below the hips, as :func:`swap_sides` does."""
+    out = np.array(points, dtype=np.float64, copy=True)
+    out[..., KNEE:, :] = np.asarray(points)[..., ::-1, KNEE:, :]
+    return out
+
+
+def crossing(points: FloatArray) -> FloatArray:
+    """``(...)`` how far (m) the ankles of leg points ``(..., 2, 5, 3)`` cross: the right ankle's lead over the left
+    one along the direction from the right hip to the left one (0 where the left ankle lies on the left hip's side;
+    0 where points are missing)."""
+    p = np.asarray(points, dtype=np.float64)
+    axis = p[..., 0, HIP, :] - p[..., 1, HIP, :]
+    norm = np.linalg.norm(axis, axis=-1)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        lead = -np.einsum("...k,...k->...", p[..., 0, ANKLE, :] - p[..., 1, ANKLE, :], axis) / norm
+    return np.where(np.isfinite(lead) & (lead > 0), lead, 0.0)
+
+
+def identity_flips(points: FloatArray, twin: Sequence[int]) -> FloatArray:
+    """``(T, C, C)``: for candidates ``(T, C, 2, 5, 3)`` whose candidate ``twin[j]`` is candidate ``j`` with its
+    legs exchanged, how much further (m; mean over the ankle, heel and toe of both legs) the feet move from
+    candidate ``i`` on frame ``t - 1`` to candidate ``j`` on frame ``t`` than to ``twin[j]`` (``[t, i, j]``; 0 where
+    they move less, on frame 0, and where points are missing).  Legs that change places between two frames move
+    further than they would exchanged back; legs that move as legs do, less."""
+    p = np.asarray(points, dtype=np.float64)[:, :, :, ANKLE:TOE + 1]
+    t_n, c_n = p.shape[:2]
+    out = np.zeros((t_n, c_n, c_n))
+    if t_n < 2:
+        return out
+    prev, cur = p[:-1, :, None], p[1:, None, :]  # (T-1, C, 1, ...), (T-1, 1, C, ...)
+    own = np.linalg.norm(cur - prev, axis=-1).mean(axis=(-2, -1))  # (T-1, from, to)
+    other = own[:, :, np.asarray(twin, dtype=np.intp)]
+    excess = own - other
+    out[1:] = np.where(np.isfinite(excess) & (excess > 0), excess, 0.0)
+    return out
+
+
 def merge_passes(passes: Sequence[PassTrack], *, switch_cost: float = SWITCH_COST_PER_M,
-                 agree_m: tuple[float, float] = AGREE_M) -> MergedTrack:
+                 agree_m: tuple[float, float] = AGREE_M, identity_cost: float = IDENTITY_COST_PER_M) -> MergedTrack:
     """Each frame's pose from the pass :func:`best_path` chooses by the passes' ``scores``, blended with the other
-    passes whose feet agree with it (:func:`blend_poses`)."""
+    passes whose feet agree with it (:func:`blend_poses`).
+
+    With ``identity_cost`` > 0 the path chooses among each pass's estimate as it is and with its legs exchanged
+    (:func:`swap_sides`; both score alike), and pays ``identity_cost`` per metre by which the chosen feet jump
+    further between two frames than they would with the legs exchanged (:func:`identity_flips`): where a pass
+    exchanged its legs, the merged track takes them back, so that its left leg stays the leg it was (before, the
+    merge followed a pass that had exchanged the legs wherever it explained the data better: 10-14 frames in 3
+    of the 64 sessions of the synthetic sweep sets, seventy-fourth session).  A stretch with no exchange in it
+    keeps the labelling whose ankles cross the least (:data:`CROSSING_TIE_BREAK_PER_M`): the tracker's own where
+    its legs do not cross.  Each other pass is blended in the labelling whose feet lie nearer the chosen ones.
+    """
     if not passes:
         raise ValueError("merge_passes needs at least one pass")
     n = len(passes[0].poses)
+    k_n = len(passes)
     if any(len(p.poses) != n or p.scores.shape != (n,) for p in passes):
         raise ValueError("the passes must cover the same frames, each with a score per frame")
-    scores = np.stack([p.scores for p in passes], axis=1) if n else np.zeros((0, len(passes)))
+    scores = np.stack([p.scores for p in passes], axis=1) if n else np.zeros((0, k_n))
     pts = np.stack([np.stack([pose.points for pose in p.poses]) if n else np.zeros((0, 2, 5, 3))
                     for p in passes], axis=1)
-    choice = best_path(scores, pts, switch_cost=switch_cost)
-    poses = [blend_poses([p.poses[t] for p in passes], int(k), agree_m=(agree_m[0], agree_m[1]))
-             for t, k in enumerate(choice)]
-    return MergedTrack(poses=poses, choice=choice, scores=scores)
+    lo_hi = (agree_m[0], agree_m[1])
+    if identity_cost <= 0 or n == 0:
+        choice = best_path(scores, pts, switch_cost=switch_cost)
+        poses = [blend_poses([p.poses[t] for p in passes], int(k), agree_m=lo_hi) for t, k in enumerate(choice)]
+        return MergedTrack(poses=poses, choice=choice, scores=scores)
+    cand = np.concatenate([pts, _swapped_points(pts)], axis=1)  # (T, 2K, 2, 5, 3): as tracked, then exchanged
+    twin = [*range(k_n, 2 * k_n), *range(k_n)]
+    cand_scores = np.concatenate([scores, scores], axis=1) - CROSSING_TIE_BREAK_PER_M * crossing(cand)
+    path = best_path(cand_scores, cand, switch_cost=switch_cost,
+                     transition=identity_cost * identity_flips(cand, twin))
+    choice = path % k_n
+    exchanged = path >= k_n
+    feet = cand[:, :, :, ANKLE:TOE + 1]
+    poses: list[LegPose] = []
+    for t, c in enumerate(path):
+        chosen = int(choice[t])
+        group: list[LegPose] = []
+        for k, p in enumerate(passes):
+            if k == chosen:
+                group.append(swap_sides(p.poses[t]) if exchanged[t] else p.poses[t])
+                continue
+            d_as, d_ex = (float(np.linalg.norm(feet[t, j] - feet[t, int(c)], axis=-1).mean()) for j in (k, k + k_n))
+            group.append(swap_sides(p.poses[t]) if d_ex < d_as else p.poses[t])
+        poses.append(blend_poses(group, chosen, agree_m=lo_hi))
+    return MergedTrack(poses=poses, choice=choice, scores=scores, exchanged=exchanged)
 
 
 def blend_poses(poses: Sequence[LegPose], chosen: int, *, agree_m: tuple[float, float] = AGREE_M) -> LegPose:
