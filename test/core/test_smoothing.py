@@ -12,7 +12,9 @@ from walker_gait.core import leg_model as lm
 from walker_gait.core.smoothing import (
     AGREE_M,
     BRIDGE_FIT_FRAMES,
+    EXCHANGE_COST,
     IDENTITY_COST_PER_M,
+    IDENTITY_MARGIN_M,
     BRIDGE_MAX_S,
     BRIDGE_POINTS,
     LiveBridge,
@@ -27,7 +29,6 @@ from walker_gait.core.smoothing import (
     lowpass_poses,
     check_against_passes,
     confirm_steps,
-    crossing,
     identity_flips,
     merge_passes,
     refine_event_times,
@@ -213,14 +214,6 @@ def test_swap_sides_exchanges_the_legs_below_the_hips_and_back() -> None:
     assert swap_sides(empty) is empty
 
 
-def test_crossing_measures_ankles_on_the_other_hips_side() -> None:
-    pose = _walking_pose(0.0)
-    assert crossing(pose.points) == 0.0
-    assert crossing(swap_sides(pose).points) == pytest.approx(0.12)  # ankles 6 cm either side, exchanged
-    assert crossing(np.full((2, 5, 3), np.nan)) == 0.0
-    assert crossing(np.stack([pose.points, swap_sides(pose).points])).shape == (2,)
-
-
 def test_identity_flips_charge_only_legs_that_change_places() -> None:
     t = np.arange(12) / 30.0
     steady = np.stack([_walking_points(s) for s in t])
@@ -229,6 +222,7 @@ def test_identity_flips_charge_only_legs_that_change_places() -> None:
     cand = np.stack([flipped, np.stack([swap_sides(LegPose(stamp=0.0, points=p)).points for p in flipped])], axis=1)
     charge = identity_flips(cand, [1, 0])
     assert charge.shape == (12, 2, 2)
+    np.testing.assert_allclose(identity_flips(cand, [1, 0], margin_m=0.02), np.maximum(charge - 0.02, 0.0))
     moved = np.zeros((12, 2, 2), dtype=bool)
     moved[1:, 0, 1] = moved[1:, 1, 0] = True  # a change of labelling between two frames jumps the legs ...
     moved[6] = ~moved[6]  # ... except across the flip, where staying on one does
@@ -247,37 +241,47 @@ def _left_foot(pose: LegPose) -> np.ndarray:
     return pose.points[0, 2:5]
 
 
+def _ankles_cross(pose: LegPose) -> bool:
+    """The left ankle lies on the right hip's side of the right ankle (the test legs' hips are 18 cm apart)."""
+    p = pose.points
+    return bool((p[0, 2, 0] - p[1, 2, 0]) * (p[0, 0, 0] - p[1, 0, 0]) < 0)
+
+
 def test_the_merge_takes_back_legs_that_a_pass_exchanged() -> None:
-    assert IDENTITY_COST_PER_M == 100.0
+    assert (IDENTITY_COST_PER_M, IDENTITY_MARGIN_M, EXCHANGE_COST) == (100.0, 0.05, 1.0)
     n = 20
     stretch = np.zeros(n, dtype=bool)
     stretch[8:14] = True
     right = _walking_pass(n, np.zeros(n), np.zeros(n, dtype=bool))
-    # the other pass exchanges its legs for six frames, where it explains the data far better
-    wrong = _walking_pass(n, np.where(stretch, 30.0, -1.0), stretch)
-    old = merge_passes([right, wrong], identity_cost=0.0)
+    # the other pass exchanges its legs for six frames, where it explains the data better (switches free, so that
+    # the path follows the better pass on every frame)
+    wrong = _walking_pass(n, np.where(stretch, 4.0, -1.0), stretch)
+    old = merge_passes([right, wrong], switch_cost=0.0, identity_cost=0.0)
     assert np.all(old.choice[stretch] == 1)  # before: the exchanged legs taken as they were
     assert not np.allclose(_left_foot(old.poses[10]), _left_foot(right.poses[10]))
-    merged = merge_passes([right, wrong])
+    merged = merge_passes([right, wrong], switch_cost=0.0)
     assert np.all(merged.choice[stretch] == 1) and merged.exchanged is not None
     np.testing.assert_array_equal(merged.exchanged, stretch)  # ... now taken back
     for t in range(n):
         np.testing.assert_allclose(merged.poses[t].points, right.poses[t].points, atol=1e-12)
-        assert crossing(merged.poses[t].points) == 0.0
+        assert not _ankles_cross(merged.poses[t])
 
 
-def test_a_pass_that_exchanges_its_legs_once_is_merged_with_its_legs_uncrossed() -> None:
-    n = 20
-    before = np.arange(n) < 7  # crossed legs until frame 7, then the tracker's legs as they should be
-    single = _walking_pass(n, np.zeros(n), before)
-    merged = merge_passes([single])
-    np.testing.assert_array_equal(merged.exchanged, before)
+def test_a_single_pass_gets_a_short_exchange_taken_back_and_keeps_its_labelling_over_a_long_one() -> None:
+    n = 40
     truth = [_walking_pose(i / 30.0) for i in range(n)]
+    short = np.zeros(n, dtype=bool)
+    short[5:10] = True  # five frames with the legs exchanged, feet far apart: two jumps cost more than taking them back
+    merged = merge_passes([_walking_pass(n, np.zeros(n), short)])
+    np.testing.assert_array_equal(merged.exchanged, short)
     for t in range(n):
         np.testing.assert_allclose(merged.poses[t].points, truth[t].points, atol=1e-12)
-    # and the other way round: crossed from frame 7 on
-    after = _walking_pass(n, np.zeros(n), ~before)
-    np.testing.assert_array_equal(merge_passes([after]).exchanged, ~before)
+    # exchanged from frame 10 to the end: one jump costs less than 30 frames taken exchanged, the tracker's
+    # labelling stands (as without the identity cost)
+    long = np.arange(n) >= 10
+    kept = merge_passes([_walking_pass(n, np.zeros(n), long)])
+    assert not kept.exchanged.any()
+    assert [_ankles_cross(p) for p in kept.poses] == list(long)
 
 
 def test_passes_without_an_exchange_merge_as_without_the_identity_cost() -> None:

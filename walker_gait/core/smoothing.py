@@ -72,18 +72,27 @@ within 0.13 cm of each other, all far better than either pass alone."""
 
 IDENTITY_COST_PER_M = 100.0
 """Log-likelihood units that the merged track pays per metre by which its feet (ankle, heel, toe of both legs, mean
-distance) move further from one frame to the next than they would with the later frame's legs exchanged
-(:func:`identity_flips`): a track whose model legs change places between two frames (a pass that exchanged its legs
-as one passed the other, or took them back) pays for the jump (an exchange of feet 30 cm apart, about 25); legs
-that move as legs do pay nothing.  The passes' scores do not tell exchanged legs apart (the model's shape is shared
-by both legs, so the depth data fit both labellings alike); their continuity does.  On the synthetic sweep sets
-(seventy-fourth session) the merge had kept a pass's exchanged legs in 3 of 64 sessions; see
-:func:`merge_passes`."""
+distance) move further from one frame to the next than they would with the later frame's legs exchanged, beyond
+:data:`IDENTITY_MARGIN_M` (:func:`identity_flips`): a track whose model legs change places between two frames (a
+pass that exchanged its legs as one passed the other, or took them back) pays for the jump (feet 30 cm apart
+exchanged, about 20); legs that move as legs do pay nothing.  The passes' scores do not tell exchanged legs apart
+(the model's shape is shared by both legs, so the depth data fit both labellings alike); their continuity does.
+On the synthetic sweep sets (seventy-fourth session) 100 and 200 gave the same merges, 50 left one exchange."""
 
-CROSSING_TIE_BREAK_PER_M = 1e-3
-"""Log-likelihood units a merged frame pays per metre by which its ankles cross (:func:`crossing`): nothing but
-a tie-break between a pass's two labellings (:func:`merge_passes`), which score alike, so that a stretch with no
-exchange in it keeps the labelling whose feet stand on their hips' sides."""
+IDENTITY_MARGIN_M = 0.05
+"""How much further (m) the feet must move than they would with the legs exchanged before the merged track pays
+:data:`IDENTITY_COST_PER_M` for the rest: a pass whose feet are both a little off (or both on one real foot) moves
+about as far either way, which is no sign of an exchange.  Without it a 2.5 cm difference had the merge exchange a
+pass's first 2.6 s back to front (`normal:902` with a lagging walker); 0.03 to 0.08 gave the same merges."""
+
+EXCHANGE_COST = 1.0
+"""Log-likelihood units a merged frame pays for taking a pass's legs exchanged: the tracker's own labelling (its
+state keeps each hip on its side and the detection assigns legs by the image's sides) stands unless continuity
+says otherwise.  A stretch the merge takes exchanged must save more than this per frame: an exchange of feet 30 cm
+apart (about 20 units of :data:`IDENTITY_COST_PER_M`) is taken back over up to about 20 frames (0.7 s at 30 Hz);
+a pass that ran longer with its legs exchanged keeps them so.  0.5 and 1 gave the same merges on the sweep sets, 2
+left one exchange; without it (ties only) two passes that each had one foot wrong were merged with one of them
+exchanged for 25 frames (`absent_start:962`, tracker seed 1)."""
 
 AGREE_M = (0.04, 0.10)
 """Mean distance (m) between two passes' feet (ankle, heel, toe of both legs) below which :func:`blend_poses` averages
@@ -246,6 +255,17 @@ def score_passes(scorer: Scorer, frame: TrackerFrame, states: Sequence[FloatArra
     return out
 
 
+def switch_costs(points: FloatArray, *, switch_cost: float = SWITCH_COST_PER_M) -> FloatArray:
+    """``(T, K, K)``: ``switch_cost`` times the mean distance between passes ``i`` and ``j``'s points ``(T, K, ..., 3)``
+    on each frame (``[t, i, j]``; 0 where they are not both there), what :func:`best_path` charges a switch."""
+    p = np.asarray(points, dtype=np.float64)
+    p = p.reshape(*p.shape[:2], -1, 3)
+    d = np.linalg.norm(p[:, :, None] - p[:, None, :], axis=-1)  # (T, K, K, N)
+    ok = np.isfinite(d)
+    count = ok.sum(axis=-1)
+    return np.where(ok, d, 0.0).sum(axis=-1) / np.maximum(count, 1) * switch_cost
+
+
 def best_path(scores: FloatArray, points: FloatArray, *, switch_cost: float = SWITCH_COST_PER_M,
               transition: FloatArray | None = None) -> IntArray:
     """The pass per frame that maximises the summed ``scores`` less the switches' costs (Viterbi).
@@ -270,14 +290,10 @@ def best_path(scores: FloatArray, points: FloatArray, *, switch_cost: float = SW
     p = np.asarray(points, dtype=np.float64)
     if p.shape[:2] != (t_n, k_n) or p.shape[-1] != 3:
         raise ValueError(f"points must be (T, K, ..., 3) with (T, K) = {s.shape}, got {p.shape}")
-    p = p.reshape(t_n, k_n, -1, 3)
     # a pass without a pose: far below any real score, but finite so that the path stays defined
     floor_score = np.nanmin(np.where(np.isfinite(s), s, np.nan)) if np.isfinite(s).any() else 0.0
     s = np.where(np.isfinite(s), s, floor_score - 1e6)
-    d = np.linalg.norm(p[:, :, None] - p[:, None, :], axis=-1)  # (T, K, K, N)
-    ok = np.isfinite(d)
-    count = ok.sum(axis=-1)
-    jump = np.where(ok, d, 0.0).sum(axis=-1) / np.maximum(count, 1) * switch_cost  # (T, from, to); 0 if not both there
+    jump = switch_costs(p, switch_cost=switch_cost)
     if transition is not None:
         extra = np.asarray(transition, dtype=np.float64)
         if extra.shape != (t_n, k_n, k_n):
@@ -367,24 +383,12 @@ def _swapped_points(points: FloatArray) -> FloatArray:
     return out
 
 
-def crossing(points: FloatArray) -> FloatArray:
-    """``(...)`` how far (m) the ankles of leg points ``(..., 2, 5, 3)`` cross: the right ankle's lead over the left
-    one along the direction from the right hip to the left one (0 where the left ankle lies on the left hip's side;
-    0 where points are missing)."""
-    p = np.asarray(points, dtype=np.float64)
-    axis = p[..., 0, HIP, :] - p[..., 1, HIP, :]
-    norm = np.linalg.norm(axis, axis=-1)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        lead = -np.einsum("...k,...k->...", p[..., 0, ANKLE, :] - p[..., 1, ANKLE, :], axis) / norm
-    return np.where(np.isfinite(lead) & (lead > 0), lead, 0.0)
-
-
-def identity_flips(points: FloatArray, twin: Sequence[int]) -> FloatArray:
+def identity_flips(points: FloatArray, twin: Sequence[int], *, margin_m: float = 0.0) -> FloatArray:
     """``(T, C, C)``: for candidates ``(T, C, 2, 5, 3)`` whose candidate ``twin[j]`` is candidate ``j`` with its
     legs exchanged, how much further (m; mean over the ankle, heel and toe of both legs) the feet move from
-    candidate ``i`` on frame ``t - 1`` to candidate ``j`` on frame ``t`` than to ``twin[j]`` (``[t, i, j]``; 0 where
-    they move less, on frame 0, and where points are missing).  Legs that change places between two frames move
-    further than they would exchanged back; legs that move as legs do, less."""
+    candidate ``i`` on frame ``t - 1`` to candidate ``j`` on frame ``t`` than to ``twin[j]``, less ``margin_m``
+    (``[t, i, j]``; 0 where that is not positive, on frame 0, and where points are missing).  Legs that change
+    places between two frames move further than they would exchanged back; legs that move as legs do, less."""
     p = np.asarray(points, dtype=np.float64)[:, :, :, ANKLE:TOE + 1]
     t_n, c_n = p.shape[:2]
     out = np.zeros((t_n, c_n, c_n))
@@ -393,24 +397,28 @@ def identity_flips(points: FloatArray, twin: Sequence[int]) -> FloatArray:
     prev, cur = p[:-1, :, None], p[1:, None, :]  # (T-1, C, 1, ...), (T-1, 1, C, ...)
     own = np.linalg.norm(cur - prev, axis=-1).mean(axis=(-2, -1))  # (T-1, from, to)
     other = own[:, :, np.asarray(twin, dtype=np.intp)]
-    excess = own - other
+    excess = own - other - margin_m
     out[1:] = np.where(np.isfinite(excess) & (excess > 0), excess, 0.0)
     return out
 
 
 def merge_passes(passes: Sequence[PassTrack], *, switch_cost: float = SWITCH_COST_PER_M,
-                 agree_m: tuple[float, float] = AGREE_M, identity_cost: float = IDENTITY_COST_PER_M) -> MergedTrack:
+                 agree_m: tuple[float, float] = AGREE_M, identity_cost: float = IDENTITY_COST_PER_M,
+                 identity_margin_m: float = IDENTITY_MARGIN_M, exchange_cost: float = EXCHANGE_COST) -> MergedTrack:
     """Each frame's pose from the pass :func:`best_path` chooses by the passes' ``scores``, blended with the other
     passes whose feet agree with it (:func:`blend_poses`).
 
     With ``identity_cost`` > 0 the path chooses among each pass's estimate as it is and with its legs exchanged
-    (:func:`swap_sides`; both score alike), and pays ``identity_cost`` per metre by which the chosen feet jump
-    further between two frames than they would with the legs exchanged (:func:`identity_flips`): where a pass
-    exchanged its legs, the merged track takes them back, so that its left leg stays the leg it was (before, the
-    merge followed a pass that had exchanged the legs wherever it explained the data better: 10-14 frames in 3
-    of the 64 sessions of the synthetic sweep sets, seventy-fourth session).  A stretch with no exchange in it
-    keeps the labelling whose ankles cross the least (:data:`CROSSING_TIE_BREAK_PER_M`): the tracker's own where
-    its legs do not cross.  Each other pass is blended in the labelling whose feet lie nearer the chosen ones.
+    below the hips (:func:`swap_sides`; both score alike, the exchanged one ``exchange_cost`` lower), and pays
+    ``identity_cost`` per metre by which the chosen feet jump further between two frames than they would with the
+    legs exchanged, less ``identity_margin_m`` (:func:`identity_flips`): where a pass exchanged its legs for a
+    while, the merged track takes them back, so that its left leg stays the leg it was.  A change of labelling
+    pays ``switch_cost`` as a switch between passes does (the legs' distance from the legs exchanged): with it
+    free the merges were worse (set A's `occlusion:131` kept its exchange, 16 frames, seventy-fourth session), so a pass is taken
+    exchanged mostly where that brings it onto the other pass, rarely against its own jump alone.  Before, the merge followed
+    a pass with exchanged legs wherever it explained the data better (10-14 frames in 3 of the 64 sessions of the
+    synthetic sweep sets C and A, seventy-fourth session; DEVELOPERS.md).  Each other pass is blended in the
+    labelling whose feet lie nearer the chosen ones.  ``identity_cost`` 0: the passes as tracked.
     """
     if not passes:
         raise ValueError("merge_passes needs at least one pass")
@@ -428,9 +436,9 @@ def merge_passes(passes: Sequence[PassTrack], *, switch_cost: float = SWITCH_COS
         return MergedTrack(poses=poses, choice=choice, scores=scores)
     cand = np.concatenate([pts, _swapped_points(pts)], axis=1)  # (T, 2K, 2, 5, 3): as tracked, then exchanged
     twin = [*range(k_n, 2 * k_n), *range(k_n)]
-    cand_scores = np.concatenate([scores, scores], axis=1) - CROSSING_TIE_BREAK_PER_M * crossing(cand)
+    cand_scores = np.concatenate([scores, scores - exchange_cost], axis=1)
     path = best_path(cand_scores, cand, switch_cost=switch_cost,
-                     transition=identity_cost * identity_flips(cand, twin))
+                     transition=identity_cost * identity_flips(cand, twin, margin_m=identity_margin_m))
     choice = path % k_n
     exchanged = path >= k_n
     feet = cand[:, :, :, ANKLE:TOE + 1]
