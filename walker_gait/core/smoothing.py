@@ -357,9 +357,7 @@ def swap_sides(pose: LegPose) -> LegPose:
     it gives ``pose`` back.  A pose without all its points is returned as it is."""
     if not _has_points(pose):
         return pose
-    old = np.asarray(pose.points, dtype=np.float64)
-    pts = old.copy()
-    pts[:, KNEE:] = old[::-1, KNEE:]
+    pts = _swapped_points(pose.points)
 
     def flipped(a: FloatArray | None) -> FloatArray | None:
         return None if a is None else np.array(np.asarray(a)[::-1], copy=True)
@@ -414,11 +412,11 @@ def merge_passes(passes: Sequence[PassTrack], *, switch_cost: float = SWITCH_COS
     legs exchanged, less ``identity_margin_m`` (:func:`identity_flips`): where a pass exchanged its legs for a
     while, the merged track takes them back, so that its left leg stays the leg it was.  A change of labelling
     pays ``switch_cost`` as a switch between passes does (the legs' distance from the legs exchanged): with it
-    free the merges were worse (set A's `occlusion:131` kept its exchange, 16 frames, seventy-fourth session), so a pass is taken
-    exchanged mostly where that brings it onto the other pass, rarely against its own jump alone.  Before, the merge followed
-    a pass with exchanged legs wherever it explained the data better (10-14 frames in 3 of the 64 sessions of the
-    synthetic sweep sets C and A, seventy-fourth session; DEVELOPERS.md).  Each other pass is blended in the
-    labelling whose feet lie nearer the chosen ones.  ``identity_cost`` 0: the passes as tracked.
+    free the merges were worse (set A's `occlusion:131` kept its exchange, 16 frames), so a pass is taken
+    exchanged mostly where that brings it onto the other pass, rarely against its own jump alone.  Before, the
+    merge followed a pass with exchanged legs wherever it explained the data better (10-14 frames in 3 of the 64
+    sessions of the synthetic sweep sets C and A; seventy-fourth session, DEVELOPERS.md).  Each other pass is
+    blended in the labelling whose feet lie nearer the chosen ones.  ``identity_cost`` 0: the passes as tracked.
     """
     if not passes:
         raise ValueError("merge_passes needs at least one pass")
