@@ -904,3 +904,18 @@ def test_the_live_bridge_keeps_a_bounded_history_and_checks_its_arguments() -> N
                           ({"history_s": 0.5}, "history_s")):
         with pytest.raises(ValueError, match=match):
             LiveBridge(hide_below=0.25, **kwargs)
+
+
+def test_switch_costs_and_identity_flips_are_the_same_computed_in_chunks(monkeypatch: pytest.MonkeyPatch) -> None:
+    import walker_gait.core.smoothing as sm
+
+    rng = np.random.default_rng(5)
+    pts = rng.normal(0.0, 0.2, (23, 4, 2, 5, 3))
+    pts[7, 1] = np.nan
+    whole = (sm.switch_costs(pts), identity_flips(pts, [2, 3, 0, 1], margin_m=0.01))
+    monkeypatch.setattr(sm, "_CHUNK", 5)
+    np.testing.assert_array_equal(sm.switch_costs(pts), whole[0])
+    np.testing.assert_array_equal(identity_flips(pts, [2, 3, 0, 1], margin_m=0.01), whole[1])
+    flips = whole[1]
+    assert np.all(flips[0] == 0.0) and np.all(flips[7][:, 1] == 0.0) and np.all(flips[8][1] == 0.0)  # NaN: no charge
+    assert np.any(flips > 0.0)
