@@ -71,7 +71,7 @@ def test_main_runs_one_sweep_per_probe_keeps_them_and_resumes(tmp_path: Path, mo
         spec = sweep.spec_overrides(a["--spec-override"])
         out = Path(a["--out"])
         out.mkdir(parents=True, exist_ok=True)
-        config = {"override": {}, "spec_override": spec, "scenarios": [a["--scenarios"]],
+        config = {"override": json.loads(a["--override"]), "spec_override": spec, "scenarios": [a["--scenarios"]],
                   "per_scenario": int(a["--per-scenario"]), "base_seed": int(a["--base-seed"]),
                   "tracker_seeds": [int(a["--tracker-seeds"])], "duration": float(a["--duration"]),
                   "passes": a["--passes"]}
@@ -100,6 +100,10 @@ def test_main_runs_one_sweep_per_probe_keeps_them_and_resumes(tmp_path: Path, mo
     # ... but not with other settings
     assert probes.main([*args, "--resume", "--tracker-seed", "1"]) == 0
     assert len(calls) == 4 and "| thin |" in md.read_text()
+    # ... nor with a tracker change, which reaches the sweeps and the table's text
+    assert probes.main([*args, "--resume", "--override", '{"n_particles": 100}']) == 0
+    assert len(calls) == 6 and json.loads(dict(zip(calls[-1][::2], calls[-1][1::2]))["--override"]) == {"n_particles": 100}
+    assert '{"n_particles": 100}' in md.read_text()
 
 
 def test_main_refuses_unknown_probes_and_reports_a_failed_sweep(tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
@@ -107,6 +111,8 @@ def test_main_refuses_unknown_probes_and_reports_a_failed_sweep(tmp_path: Path, 
     md = tmp_path / "P.md"
     assert probes.main(["--probes", "base", "no_such", "--md", str(md)]) == 2
     assert "no_such" in capsys.readouterr().err and not md.exists()
+    assert probes.main(["--probes", "base", "--md", str(md), "--override", '{"no_such_field": 1}']) == 2
+    assert "no_such_field" in capsys.readouterr().err and not md.exists()
     monkeypatch.setattr(sweep, "main", lambda argv: 2)
     assert probes.main(["--probes", "base", "--md", str(md), "--out", str(tmp_path / "k")]) == 2
     assert "base" in capsys.readouterr().err and not md.exists()

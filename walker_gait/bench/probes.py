@@ -129,11 +129,13 @@ def format_probes(results: Mapping[str, Mapping[str, Any]], *, probes: Sequence[
 
 
 def probe_argv(probe: Probe, *, out: Path, per_probe: int, base_seed: int, tracker_seed: int, passes: str,
-               jobs: int, cache: Path, duration: float) -> list[str]:
-    """The ``walker_gait.bench.sweep`` arguments of one probe's run."""
+               jobs: int, cache: Path, duration: float, override: Mapping[str, Any] | None = None) -> list[str]:
+    """The ``walker_gait.bench.sweep`` arguments of one probe's run (``override``: ``TrackerConfig`` fields of the
+    ``default`` preset, as the sweep's ``--override``)."""
     return ["--scenarios", "normal", "--per-scenario", str(per_probe), "--base-seed", str(base_seed),
             "--tracker-seeds", str(tracker_seed), "--passes", passes, "--jobs", str(jobs), "--cache", str(cache),
-            "--duration", f"{duration:g}", "--out", str(out / probe.name), "--spec-override", json.dumps(dict(probe.spec))]
+            "--duration", f"{duration:g}", "--out", str(out / probe.name), "--spec-override", json.dumps(dict(probe.spec)),
+            "--override", json.dumps(dict(override or {}))]
 
 
 def _kept(path: Path, config: Mapping[str, Any]) -> Mapping[str, Any] | None:
@@ -172,6 +174,9 @@ def main(argv: list[str] | None = None) -> int:
                     help="both (default): as `walker-gait process`; forward: the live graph's one pass")
     ap.add_argument("--jobs", type=int, default=os.cpu_count() or 1)
     ap.add_argument("--cache", type=Path, default=Path("out/sweep/cache"), help="rendered sessions (reused)")
+    ap.add_argument("--override", default="{}",
+                    help="TrackerConfig field overrides of the default preset, JSON (a tracker change judged on the "
+                         "probes: run once without, once with, each with its own --out and --md)")
     ap.add_argument("--resume", action="store_true", help="reuse a probe's kept sweep that ran with the same settings")
     a = ap.parse_args(argv)
     if a.list:
@@ -187,13 +192,23 @@ def main(argv: list[str] | None = None) -> int:
     if a.per_probe < 1 or a.jobs < 1 or not a.duration > 0:
         print("probes: --per-probe and --jobs must be >= 1 and --duration > 0", file=sys.stderr)
         return 2
+    try:
+        override = json.loads(a.override)
+        if not isinstance(override, dict):
+            raise TypeError("expected a JSON object of TrackerConfig fields")
+        from walker_gait.core.tracker import preset
+
+        preset("default", **override)
+    except (json.JSONDecodeError, TypeError, ValueError) as exc:
+        print(f"probes: bad --override {a.override!r}: {exc}", file=sys.stderr)
+        return 2
     chosen = [known[n] for n in dict.fromkeys(names)]
     results: dict[str, Mapping[str, Any]] = {}
     t0 = time.perf_counter()
     for k, p in enumerate(chosen, 1):
         config = {"spec_override": sweep.spec_overrides(json.dumps(dict(p.spec))), "scenarios": ["normal"],
                   "per_scenario": a.per_probe, "base_seed": a.base_seed, "tracker_seeds": [a.tracker_seed],
-                  "duration": a.duration, "passes": a.passes, "override": {}}
+                  "duration": a.duration, "passes": a.passes, "override": override}
         config = json.loads(json.dumps(config))  # as the kept summary.json has it (tuples as lists)
         rep = _kept(a.out / p.name, config) if a.resume else None
         if rep is None:
@@ -201,7 +216,7 @@ def main(argv: list[str] | None = None) -> int:
             with contextlib.redirect_stdout(io.StringIO()):  # the sweep prints its own table; ours comes at the end
                 rc = sweep.main(probe_argv(p, out=a.out, per_probe=a.per_probe, base_seed=a.base_seed,
                                            tracker_seed=a.tracker_seed, passes=a.passes, jobs=a.jobs, cache=a.cache,
-                                           duration=a.duration))
+                                           duration=a.duration, override=override))
             if rc != 0:
                 print(f"probes: the sweep of probe {p.name} failed (exit {rc})", file=sys.stderr)
                 return rc
@@ -213,6 +228,7 @@ def main(argv: list[str] | None = None) -> int:
             print(f"[probes] {k}/{len(chosen)} {p.name}: kept ({a.out / p.name})", file=sys.stderr, flush=True)
         results[p.name] = rep["per_tracker_seed"][str(a.tracker_seed)]
     table = format_probes(results)
+    tracker = f" changed by `{json.dumps(override)}`" if override else ""
     seeds = f"{a.base_seed}-{a.base_seed + a.per_probe - 1}" if a.per_probe > 1 else str(a.base_seed)
     passes = ("both passes merged, as `walker-gait process`" if a.passes == "both"
               else "the forward pass alone, as the live graph")
@@ -225,7 +241,7 @@ def main(argv: list[str] | None = None) -> int:
         f"Each probe: {a.per_probe} synthetic `normal` session{'s' if a.per_probe > 1 else ''} of {a.duration:g} s "
         f"(session seed{'s' if a.per_probe > 1 else ''} {seeds}, the same in every probe) with the generator's ranges "
         "moved as named, tracked "
-        f"with the `default` preset (tracker seed {a.tracker_seed}; {passes}). Figures as in `make sweep` "
+        f"with the `default` preset{tracker} (tracker seed {a.tracker_seed}; {passes}). Figures as in `make sweep` "
         "(`walker_gait.bench.sweep`): joint errors are mean 3D distances over the frames with both legs in view; "
         "steps are matched to the true ones as in BENCHMARKS.md. Compare a row with `base`: the same sessions "
         "otherwise. The kept sweeps (per-session figures, tracked poses) are under "
