@@ -97,6 +97,7 @@ def test_main_runs_one_sweep_per_probe_keeps_them_and_resumes(tmp_path: Path, mo
     # --resume: the kept sweeps ran with these settings and are read back, not run again
     assert probes.main([*args, "--resume"]) == 0
     assert len(calls) == 2 and "kept" in capsys.readouterr().err
+    assert "2 of them kept from an earlier run" in md.read_text()
     # ... but not with other settings
     assert probes.main([*args, "--resume", "--tracker-seed", "1"]) == 0
     assert len(calls) == 4 and "| thin |" in md.read_text()

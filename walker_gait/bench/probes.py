@@ -53,6 +53,8 @@ PROBES: tuple[Probe, ...] = (
     Probe(name="heavy", what="thick legs (girth 1.20-1.35)", spec={"girth": [1.2, 1.35]}),
     Probe(name="thin", what="thin legs (girth 0.75-0.85)", spec={"girth": [0.75, 0.85]}),
     Probe(name="close", what="the user 0.62-0.72 m from the camera (0.78-0.95)", spec={"user_distance": [0.62, 0.72]}),
+    Probe(name="far", what="the user 1.00-1.15 m from the camera (a longer walker frame)",
+          spec={"user_distance": [1.0, 1.15]}),
     # gaits
     Probe(name="crouch", what="a crouched gait: knees bent 20-28 deg at least, slow, short steps",
           spec={"knee_min_flex_deg": [20, 28], "cadence": [80, 95], "step_length": [0.35, 0.45]}),
@@ -62,6 +64,8 @@ PROBES: tuple[Probe, ...] = (
           spec={"step_length": [0.2, 0.3], "cadence": [70, 85], "toe_clearance": [0.005, 0.01]}),
     Probe(name="irregular", what="irregular steps: step time CV 8-12 %, length / width SD 4-6 / 3-5 cm",
           spec={"step_time_cv": [0.08, 0.12], "step_length_sd": [0.04, 0.06], "step_width_sd": [0.03, 0.05]}),
+    Probe(name="fast", what="a brisk walk: 115-125 steps/min, 60-70 cm steps",
+          spec={"cadence": [115, 125], "step_length": [0.6, 0.7]}),
     Probe(name="wide", what="a wide base: step width 16-22 cm", spec={"step_width": [0.16, 0.22]}),
     Probe(name="lag", what="a walker that lags 0.6-0.9 s behind its user (0.25-0.45)", spec={"walker_lag": [0.6, 0.9]}),
     # clothes
@@ -204,6 +208,7 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     chosen = [known[n] for n in dict.fromkeys(names)]
     results: dict[str, Mapping[str, Any]] = {}
+    kept: list[str] = []
     t0 = time.perf_counter()
     for k, p in enumerate(chosen, 1):
         config = {"spec_override": sweep.spec_overrides(json.dumps(dict(p.spec))), "scenarios": ["normal"],
@@ -226,8 +231,11 @@ def main(argv: list[str] | None = None) -> int:
                 return 1
         else:
             print(f"[probes] {k}/{len(chosen)} {p.name}: kept ({a.out / p.name})", file=sys.stderr, flush=True)
+            kept.append(p.name)
         results[p.name] = rep["per_tracker_seed"][str(a.tracker_seed)]
     table = format_probes(results)
+    resumed = (f"; {len(kept)} of them kept from an earlier run with the same settings (`--resume`), their tracker "
+               "times that run's" if kept else "")
     tracker = f" changed by `{json.dumps(override)}`" if override else ""
     seeds = f"{a.base_seed}-{a.base_seed + a.per_probe - 1}" if a.per_probe > 1 else str(a.base_seed)
     passes = ("both passes merged, as `walker-gait process`" if a.passes == "both"
@@ -236,7 +244,7 @@ def main(argv: list[str] | None = None) -> int:
         "# walker_gait probe battery",
         "",
         f"Measured {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())} by `python -m walker_gait.bench.probes` "
-        f"({len(chosen)} probes, {time.perf_counter() - t0:.0f} s) on: {machine()}.",
+        f"({len(chosen)} probes, {time.perf_counter() - t0:.0f} s{resumed}) on: {machine()}.",
         "",
         f"Each probe: {a.per_probe} synthetic `normal` session{'s' if a.per_probe > 1 else ''} of {a.duration:g} s "
         f"(session seed{'s' if a.per_probe > 1 else ''} {seeds}, the same in every probe) with the generator's ranges "
