@@ -9,7 +9,7 @@ Every probe tracks the same session seeds, so a probe's row against the ``base``
 
 Usage::
 
-    python -m walker_gait.bench.probes                     # all probes -> PROBES.md (about 25 min on 2 cores)
+    python -m walker_gait.bench.probes                     # all probes -> PROBES.md (10-20 min on 2 cores)
     python -m walker_gait.bench.probes --probes base thin  # some of them
     python -m walker_gait.bench.probes --list              # what each probe varies
 
@@ -154,16 +154,10 @@ def _kept(path: Path, config: Mapping[str, Any]) -> Mapping[str, Any] | None:
     return rep
 
 
-def _write_atomic(path: Path, text: str) -> None:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    tmp.write_text(text)
-    os.replace(tmp, path)
-
-
 def main(argv: list[str] | None = None) -> int:
     from walker_gait.bench import sweep
     from walker_gait.bench.__main__ import machine
+    from walker_gait.io.outputs import atomic_write
 
     ap = argparse.ArgumentParser(prog="python -m walker_gait.bench.probes", description=__doc__.split("\n\n")[0])
     ap.add_argument("--probes", nargs="+", metavar="NAME", help="probes to run (default: all; see --list)")
@@ -258,7 +252,9 @@ def main(argv: list[str] | None = None) -> int:
         table,
         "",
     ])
-    _write_atomic(a.md, text)
+    a.md.parent.mkdir(parents=True, exist_ok=True)
+    with atomic_write(a.md) as f:
+        f.write(text)
     print(table)
     print(f"[probes] {len(chosen)} probes in {time.perf_counter() - t0:.0f} s -> {a.md}", file=sys.stderr)
     return 0
