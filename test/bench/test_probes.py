@@ -120,3 +120,22 @@ def test_main_refuses_unknown_probes_and_reports_a_failed_sweep(tmp_path: Path, 
     assert probes.main(["--list"]) == 0
     listed = capsys.readouterr().out
     assert all(p.name in listed for p in probes.PROBES)
+
+
+def test_two_battery_runs_side_by_side(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    before = {"base": _summary(), "thin": _summary(step_length_mae_cm=1.1), "roll": _summary()}
+    after = {"base": _summary(), "thin": _summary(step_length_mae_cm=0.65)}  # roll not run again
+    lines = probes.format_comparison(before, after).splitlines()
+    head = [c.strip() for c in lines[0].strip("|").split("|")]
+    rows = {r[0]: dict(zip(head, r)) for r in ([c.strip() for c in line.strip("|").split("|")] for line in lines[2:])}
+    assert list(rows) == ["base", "thin"]  # probes run in both, in the battery's order
+    assert rows["thin"]["step length MAE cm"] == "1.10 -> 0.65" and rows["base"]["heel cm"] == "1.23 -> 1.23"
+    # from the kept sweeps' summary.json files
+    for name, run in (("a", before), ("b", after)):
+        for probe, fig in run.items():
+            (tmp_path / name / probe).mkdir(parents=True)
+            (tmp_path / name / probe / "summary.json").write_text(json.dumps({"per_tracker_seed": {"0": fig}}))
+    assert probes.main(["--compare", str(tmp_path / "a"), str(tmp_path / "b")]) == 0
+    assert "| thin | " in capsys.readouterr().out
+    assert probes.main(["--compare", str(tmp_path / "a"), str(tmp_path / "none")]) == 2
+    assert "none" in capsys.readouterr().err

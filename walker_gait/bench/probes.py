@@ -12,6 +12,8 @@ Usage::
     python -m walker_gait.bench.probes                     # all probes -> PROBES.md (10-20 min on 2 cores)
     python -m walker_gait.bench.probes --probes base thin  # some of them
     python -m walker_gait.bench.probes --list              # what each probe varies
+    python -m walker_gait.bench.probes --override '{"n_particles": 288}' --out out/probes_new --md out/probes_new.md
+    python -m walker_gait.bench.probes --compare out/probes out/probes_new   # a tracker change, probe by probe
 
 Each probe's sweep (``summary.json``, ``table.md``, ``runs.pkl``) is kept under ``--out``; ``--resume`` reuses a
 probe whose kept sweep ran with the same settings.  The table is written atomically.
@@ -31,7 +33,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-__all__ = ["PROBES", "Probe", "format_probes", "main", "probe_argv"]
+__all__ = ["PROBES", "Probe", "format_comparison", "format_probes", "main", "probe_argv"]
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -132,6 +134,41 @@ def format_probes(results: Mapping[str, Mapping[str, Any]], *, probes: Sequence[
     return "\n".join(lines)
 
 
+_COMPARED = ("heel cm", "ankle cm", "knee cm", "frames > 10 cm at the walker %", "swapped frames %",
+             "steps matched / true (in view)", "step length MAE cm", "step width MAE cm (bias)", "cadence err %")
+"""The columns :func:`format_comparison` sets side by side."""
+
+
+def format_comparison(before: Mapping[str, Mapping[str, Any]], after: Mapping[str, Mapping[str, Any]], *,
+                      probes: Sequence[Probe] = PROBES) -> str:
+    """Markdown table of two runs of the battery (each as :func:`format_probes` takes them), one row per probe run in
+    both, each figure as ``before -> after``."""
+    cols = [c for c in _COLUMNS if c[0] in _COMPARED]
+    head = ["probe", *(c[0] for c in cols)]
+    lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    for p in probes:
+        b, a = before.get(p.name), after.get(p.name)
+        if b is None or a is None:
+            continue
+        cells = [f"{_cell(b, paths, fmt)} -> {_cell(a, paths, fmt)}" for _, paths, fmt in cols]
+        lines.append("| " + " | ".join([p.name, *cells]) + " |")
+    return "\n".join(lines)
+
+
+def _read_battery(out: Path, tracker_seed: int) -> dict[str, Mapping[str, Any]]:
+    """The kept sweeps of a battery run under ``out`` (``NAME/summary.json``), one tracker seed's figures by probe."""
+    res: dict[str, Mapping[str, Any]] = {}
+    for p in PROBES:
+        try:
+            rep = json.loads((out / p.name / "summary.json").read_text())
+        except (OSError, json.JSONDecodeError):
+            continue
+        fig = rep.get("per_tracker_seed", {}).get(str(tracker_seed))
+        if fig is not None:
+            res[p.name] = fig
+    return res
+
+
 def probe_argv(probe: Probe, *, out: Path, per_probe: int, base_seed: int, tracker_seed: int, passes: str,
                jobs: int, cache: Path, duration: float, override: Mapping[str, Any] | None = None) -> list[str]:
     """The ``walker_gait.bench.sweep`` arguments of one probe's run (``override``: ``TrackerConfig`` fields of the
@@ -176,7 +213,18 @@ def main(argv: list[str] | None = None) -> int:
                     help="TrackerConfig field overrides of the default preset, JSON (a tracker change judged on the "
                          "probes: run once without, once with, each with its own --out and --md)")
     ap.add_argument("--resume", action="store_true", help="reuse a probe's kept sweep that ran with the same settings")
+    ap.add_argument("--compare", type=Path, nargs=2, metavar=("BEFORE", "AFTER"),
+                    help="print two kept battery runs (their --out folders) side by side, and exit")
     a = ap.parse_args(argv)
+    if a.compare:
+        runs = [_read_battery(d, a.tracker_seed) for d in a.compare]
+        for d, r in zip(a.compare, runs):
+            if not r:
+                print(f"probes: no kept probe sweeps (NAME/summary.json, tracker seed {a.tracker_seed}) under {d}",
+                      file=sys.stderr)
+                return 2
+        print(format_comparison(*runs))
+        return 0
     if a.list:
         for p in PROBES:
             print(f"{p.name:12s} {p.what}\n{'':12s} {json.dumps(dict(p.spec))}")
