@@ -40,7 +40,7 @@ import math
 import time
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
-from typing import Protocol
+from typing import Protocol, TypeVar
 
 import numpy as np
 from numpy.typing import NDArray
@@ -1106,15 +1106,9 @@ def refine_event_times(events: Sequence[GaitEvent], steps: Sequence[Step], per_p
     moved: dict[tuple[int, int], tuple[FloatArray, FloatArray]] = {}
     out_events: list[GaitEvent] = []
     for e in events:
-        mates = []
-        for evs in per_pass if e.kind in kinds else ():
-            near = [o.stamp for o in evs if o.side == e.side and o.kind == e.kind and abs(o.stamp - e.stamp) <= within_s]
-            if not near:
-                break
-            mates.append(min(near, key=lambda t: abs(t - e.stamp)))
-        else:
-            if mates:
-                e = dataclasses.replace(e, stamp=float(np.median([e.stamp, *mates])))
+        mates = _mates(e.stamp, per_pass, within_s=within_s, same=lambda o, e=e: o.side == e.side and o.kind == e.kind)
+        if e.kind in kinds and mates:
+            e = dataclasses.replace(e, stamp=float(np.median([e.stamp, *(o.stamp for o in mates)])))
         out_events.append(e)
     for kind in EventKind:
         for side in (0, 1):
@@ -1158,11 +1152,54 @@ def refine_event_times(events: Sequence[GaitEvent], steps: Sequence[Step], per_p
     return out_events, out_steps
 
 
+def refine_step_lengths(steps: Sequence[Step], per_pass: Sequence[Sequence[Step]], *,
+                        within_s: float = CONFIRM_S) -> list[Step]:
+    """``steps`` (the gait analyzer's on the merged poses) with each step's length as the median of its own and each
+    pass's (``per_pass[k]``: the analyzer's steps on pass ``k``'s poses alone), where every pass has a step of the
+    same side whose heel strike lies within ``within_s`` of it.
+
+    The merged track switches between the passes frame by frame, and a step whose landing or trailing foot each pass
+    held somewhere else (a foot hidden, or out of the image below its edge) can come out of the merged poses further
+    off than from either pass: the brisk walk's third step of a probe read -0.7 cm on the merged poses, 51.5 and 57.2
+    from the passes alone (true 60.5).  The median of the three keeps the merged step where the passes bracket it and
+    drops the outlier, as :func:`refine_event_times` does for the events' times (ten sweep runs and 24 probes
+    re-analysed, seventy-fifth session: step length MAE better or equal in every sweep run, 0.70 -> 0.58 cm on the
+    probes' `base`).  Widths and stride lengths are left as measured on the merged track (their medians were mixed).
+    A step without a mate in every pass keeps its length; :func:`confirm_steps` has doubted it already."""
+    out = []
+    for st in steps:
+        mates = _mates(st.stamp, per_pass, within_s=within_s, same=lambda o, st=st: int(o.side) == int(st.side))
+        if mates:
+            vals = [float(st.step_length), *(float(m.step_length) for m in mates)]
+            if all(math.isfinite(v) for v in vals):
+                st = dataclasses.replace(st, step_length=float(np.median(vals)))
+        out.append(st)
+    return out
+
+
+_Timed = TypeVar("_Timed", GaitEvent, Step)
+
+
+def _mates(stamp: float, per_pass: Sequence[Sequence[_Timed]], *, within_s: float,
+           same: Callable[[_Timed], bool]) -> list[_Timed] | None:
+    """Each pass's item (``same`` as the one at ``stamp``: its foot, its kind) nearest to ``stamp`` within
+    ``within_s``; None where some pass has none."""
+    mates = []
+    for items in per_pass:
+        near = [o for o in items if same(o) and abs(o.stamp - stamp) <= within_s]
+        if not near:
+            return None
+        mates.append(min(near, key=lambda o: abs(o.stamp - stamp)))
+    return mates
+
+
 def check_against_passes(events: Sequence[GaitEvent], steps: Sequence[Step],
                          per_pass: Sequence[tuple[Sequence[GaitEvent], Sequence[Step]]], *,
                          confirm: dict[str, float] | None = None) -> tuple[list[GaitEvent], list[Step]]:
     """The merged track's events and steps checked against each pass's own (``per_pass[k]``: the gait analyzer's
     events and steps on pass ``k``'s poses alone): steps not confirmed doubted (:func:`confirm_steps`, with the
-    keyword arguments ``confirm``), events and the steps' times refined (:func:`refine_event_times`)."""
-    confirmed = confirm_steps(steps, [s for _, s in per_pass], **(confirm or {}))
-    return refine_event_times(events, confirmed, [e for e, _ in per_pass])
+    keyword arguments ``confirm``, on the merged track's own lengths), their lengths refined
+    (:func:`refine_step_lengths`), events and the steps' times refined (:func:`refine_event_times`)."""
+    per_steps = [s for _, s in per_pass]
+    confirmed = confirm_steps(steps, per_steps, **(confirm or {}))
+    return refine_event_times(events, refine_step_lengths(confirmed, per_steps), [e for e, _ in per_pass])
