@@ -1106,8 +1106,9 @@ def refine_event_times(events: Sequence[GaitEvent], steps: Sequence[Step], per_p
     moved: dict[tuple[int, int], tuple[FloatArray, FloatArray]] = {}
     out_events: list[GaitEvent] = []
     for e in events:
-        mates = _mates(e.stamp, per_pass, within_s=within_s, same=lambda o, e=e: o.side == e.side and o.kind == e.kind)
-        if e.kind in kinds and mates:
+        mates = (_mates(e.stamp, per_pass, within_s=within_s, same=lambda o, e=e: o.side == e.side and o.kind == e.kind)
+                 if e.kind in kinds else None)
+        if mates:
             e = dataclasses.replace(e, stamp=float(np.median([e.stamp, *(o.stamp for o in mates)])))
         out_events.append(e)
     for kind in EventKind:
@@ -1162,7 +1163,7 @@ def refine_step_lengths(steps: Sequence[Step], per_pass: Sequence[Sequence[Step]
     held somewhere else (a foot hidden, or out of the image below its edge) can come out of the merged poses further
     off than from either pass: the brisk walk's third step of a probe read -0.7 cm on the merged poses, 51.5 and 57.2
     from the passes alone (true 60.5).  The median of the three keeps the merged step where the passes bracket it and
-    drops the outlier, as :func:`refine_event_times` does for the events' times (ten sweep runs and 24 probes
+    drops the outlier, as :func:`refine_event_times` does for the events' times (eight sweep runs and 24 probes
     re-analysed, seventy-fifth session: step length MAE better or equal in every sweep run, 0.70 -> 0.58 cm on the
     probes' `base`).  Widths and stride lengths are left as measured on the merged track (their medians were mixed).
     A step without a mate in every pass keeps its length; :func:`confirm_steps` has doubted it already."""
