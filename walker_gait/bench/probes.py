@@ -159,9 +159,8 @@ def _read_battery(out: Path, tracker_seed: int) -> dict[str, Mapping[str, Any]]:
     """The kept sweeps of a battery run under ``out`` (``NAME/summary.json``), one tracker seed's figures by probe."""
     res: dict[str, Mapping[str, Any]] = {}
     for p in PROBES:
-        try:
-            rep = json.loads((out / p.name / "summary.json").read_text())
-        except (OSError, json.JSONDecodeError):
+        rep = _kept(out / p.name, {})  # whatever settings it ran with
+        if rep is None:
             continue
         fig = rep.get("per_tracker_seed", {}).get(str(tracker_seed))
         if fig is not None:
