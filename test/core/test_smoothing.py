@@ -798,6 +798,75 @@ def test_a_hidden_foot_that_swings_or_has_no_floor_seen_is_bridged_by_the_curves
     assert [p.points.tolist() for p in bridge_hidden_legs(raised, hide_below=0.25, floor_frame=True)] == want
 
 
+def _landing_foot(n: int, hidden: range, *, land: int, floor_v: float = 0.8, swing_v: float = 2.0,
+                  dt: float = 1 / 30, stance_z: float = 0.0, left_z: float = 0.0) -> tuple[list[LegPose], np.ndarray]:
+    """``n`` poses in a floor-aligned frame (z up, floor z = 0) of a walker moving along -x at ``floor_v``, its user
+    walking close to the camera: the left foot stands flat (``left_z`` up) and rides the floor (+x); the right one
+    swings towards the camera (-x) at ``swing_v`` against the walker frame, 5 cm up, lands flat at frame ``land``
+    and rides the floor from then on, ``stance_z`` up.  The right foot is hidden over ``hidden`` (held at the last
+    frame seen, as the tracker holds a foot that left the image).  Returns the poses and the true points."""
+    truth = np.zeros((n, 2, 5, 3))
+    heel_land = np.array([0.30, -0.1, stance_z])
+    foot = np.array([[0.0, 0.0, 0.85], [-0.06, 0.0, 0.51], [-0.06, 0.0, 0.09], [0.0, 0.0, 0.0], [-0.26, 0.0, 0.0]])
+    for i in range(n):
+        t = i * dt
+        heel_l = np.array([0.1 + floor_v * t, 0.1, left_z])
+        truth[i, 0] = heel_l + foot
+        if i < land:
+            heel = heel_land + [swing_v * (land - i) * dt, 0.0, 0.05 - stance_z]
+        else:
+            heel = heel_land + [floor_v * (i - land) * dt, 0.0, 0.0]
+        truth[i, 1] = heel + foot
+    poses, held = [], truth.copy()
+    for i in range(n):
+        vis = np.ones((2, 3))
+        if i in hidden:
+            vis[1, 1:] = 0.0
+            held[i, 1] = held[i - 1, 1]
+        poses.append(LegPose(stamp=i * dt, points=held[i].copy(), visibility=vis, status=TrackStatus.TRACKING,
+                             confidence=0.9))
+    return poses, truth
+
+
+def test_a_foot_hidden_from_its_swing_to_its_stance_lands_and_rides_the_floor_back_into_view() -> None:
+    """A user close to the camera lands the swinging foot below the image and the floor carries it back into view:
+    the foot seen standing afterwards, carried back at the floor's velocity, is where the hidden one stood since
+    its landing (exact); the curves alone cut the corner between the swing and the stance by centimetres."""
+    hidden, land = range(14, 28), 18
+    poses, truth = _landing_foot(40, hidden, land=land)
+    gap = slice(hidden.start, hidden.stop)
+    landed = bridge_hidden_legs(poses, hide_below=0.25, floor_frame=True)
+    plain = bridge_hidden_legs(poses, hide_below=0.25)
+    err = {name: np.linalg.norm(np.array([p.points[1, 2:] for p in out[gap]]) - truth[gap, 1, 2:], axis=-1)
+           for name, out in (("landed", landed), ("plain", plain))}
+    assert err["plain"].max() > 0.05
+    assert err["landed"][-6:].max() < 1e-9  # from the landing on: standing flat where the floor carried it
+    assert err["landed"].mean() < 0.5 * err["plain"].mean()
+    assert all(np.array_equal(o.points[1, :2], p.points[1, :2]) for o, p in zip(landed[gap], plain[gap]))  # hip, knee
+    assert all(o is p for i, (o, p) in enumerate(zip(landed, poses)) if i not in hidden)
+    # no flat foot seen near the stretch (the other foot and the landed one stand on a mat 2.5 cm up): the floor's
+    # velocity is the standing foot's own, which runs against its swing; the same landing
+    on_mat, mat_truth = _landing_foot(40, hidden, land=land, stance_z=0.025, left_z=0.05)
+    out = bridge_hidden_legs(on_mat, hide_below=0.25, floor_frame=True)
+    assert np.abs(np.array([p.points[1, 2:] for p in out[gap]])[-6:] - mat_truth[gap, 1, 2:][-6:]).max() < 1e-9
+    # live, frame by frame: as the offline bridge of the frames received when the stretch is decided
+    floor = FloorPlane.from_camera_pose(height=0.5, pitch=np.radians(30.0))
+    camera = _to_camera(poses, floor)
+    live, _ = _live(LiveBridge(hide_below=0.25), camera, [floor] * len(camera))
+    walker = np.array([floor.to_walker(p.points) for p in live])
+    assert np.abs(walker[gap, 1, 2:][-6:] - truth[gap, 1, 2:][-6:]).max() < 1e-6
+
+
+def test_a_landing_near_a_walker_that_stands_or_a_foot_seen_swinging_again_is_left_to_the_curves() -> None:
+    """The landing is only modelled where the floor carries the landed foot (the walker rolls) and the foot is seen
+    standing after the stretch."""
+    hidden = range(14, 28)
+    for poses in (_landing_foot(40, hidden, land=18, floor_v=0.2)[0],  # a walker barely rolling
+                  _landing_foot(40, hidden, land=30)[0]):  # still swinging when seen again
+        want = [p.points.tolist() for p in bridge_hidden_legs(poses, hide_below=0.25)]
+        assert [p.points.tolist() for p in bridge_hidden_legs(poses, hide_below=0.25, floor_frame=True)] == want
+
+
 def test_reported_poses_roll_a_hidden_planted_foot_in_the_walker_frame() -> None:
     """With floors the bridge works in the walker frame, where the floor is z = 0: a hidden foot that stood on it is
     rolled over its toe (the camera here 0.5 m up, pitched 30 deg down); without floors the curves alone."""

@@ -141,6 +141,20 @@ BRIDGE_FLOOR_S = 0.5
 """s: the floor's velocity through the walker frame at a stretch is the median over the flat feet seen within this of
 it (at least :data:`BRIDGE_FLOOR_SAMPLES` of them)."""
 BRIDGE_FLOOR_SAMPLES = 5
+BRIDGE_LANDING_SPEED_PCT = 95.0
+"""Percentile of the seen toes' frame-to-frame speeds that bounds a hidden foot's swing into its landing
+(:func:`_landing_bridge`): the landing is put at the earliest frame from which a swing no faster than this reaches
+the floor where the foot is seen standing later.  The fastest seen toe (what bounds a toe-off, :data:`_FloorMotion`)
+is often one jump of the tracker (6 m/s where the 95th percentile was 2.3) and lands the foot too early.  Heels on
+the `lag`, `close` and `fast` probes and the bench's `walker_lag` session (seventy-sixth session, before
+:data:`BRIDGE_LANDING_MIN_FLOOR`): the maximum 2.570 / 2.206 / 1.829 / 2.363 cm, the 98th percentile 2.534 / 2.184 /
+1.822 / 2.393, the 95th 2.530 / 2.179 / 1.819 / 2.405 (frames over 10 cm at the walker on `lag` 2.22 / 1.98 /
+1.98 %)."""
+BRIDGE_LANDING_MIN_FLOOR = 0.3
+"""m/s: the floor (the walker) moves at least this fast through the walker frame for :func:`_landing_bridge` to
+carry a landed foot with it; a walker standing or starting to roll is left to the curves (a foot landing near a
+still walker is not carried anywhere, and at a start the floor's velocity, a median over a second, lags the
+walker's)."""
 
 LOWPASS_HZ = 6.0
 """Cut-off (Hz) of the zero-phase low-pass over the reported points and angles (:func:`lowpass_poses`): the usual
@@ -551,6 +565,10 @@ def bridge_hidden_legs(poses: Sequence[LegPose], *, hide_below: float, max_gap_s
     floor when last seen (:data:`BRIDGE_PLANTED_Z`, :data:`BRIDGE_PLANTED_SPEED`) is bridged as a walking foot moves
     (:func:`_planted_bridge`): the trailing foot hidden behind the leading leg from its heel-off on keeps its toe on
     the floor and rolls over it, where two flat ends' curves held it flat and let its toe slide forward.
+
+    A foot last seen swinging and seen again standing on the floor (a user close to the camera landing it below
+    the image, the floor carrying it back into view) lands on the track the floor carried it along
+    (:func:`_landing_bridge`), where the curves between a swinging end and a standing one cut the corner.
     """
     if fit_frames < 1:
         raise ValueError(f"fit_frames must be >= 1, got {fit_frames}")
@@ -586,8 +604,11 @@ def bridge_hidden_legs(poses: Sequence[LegPose], *, hide_below: float, max_gap_s
             m1 = span * (poses[hi + k].points[leg, idx] - p1) / dt1
             curve = np.stack([_hermite((stamps[i] - stamps[lo]) / span, p0, m0, p1, m1) for i in range(a, hi)])
             if floor is not None:
-                curve = _planted_bridge(curve, poses[lo].points[leg], poses[hi].points[leg], stamps[lo:hi + 1],
-                                        v0=m0[-1] / span, v1=m1[-1] / span, floor=floor)
+                planted = _planted_bridge(curve, poses[lo].points[leg], poses[hi].points[leg], stamps[lo:hi + 1],
+                                          v0=m0[-1] / span, v1=m1[-1] / span, floor=floor)
+                curve = planted if planted is not curve else _landing_bridge(
+                    curve, poses[lo].points[leg], poses[hi].points[leg], stamps[lo:hi + 1], v0=m0 / span,
+                    v1=m1 / span, floor=floor)
             for i in range(a, hi):
                 out[i] = _with_leg_points(out[i], leg, curve[i - a])
     return out
@@ -615,6 +636,7 @@ class _FloorMotion:
     times: FloatArray  # (F,) s: when the flat feet's velocities were taken
     velocities: FloatArray  # (F, 2) m/s: their toes' velocities, the floor's there
     toe_speed: float  # m/s: the fastest a seen toe moved from one frame to the next (inf: none seen)
+    landing_speed: float  # m/s: the BRIDGE_LANDING_SPEED_PCT-th percentile of those speeds (inf: none seen)
 
     @staticmethod
     def of(poses: Sequence[LegPose], seen: NDArray[np.bool_], stamps: FloatArray) -> _FloorMotion:
@@ -632,7 +654,9 @@ class _FloorMotion:
                     vel.append((poses[i + 1].points[leg, TOE, :2] - poses[i - 1].points[leg, TOE, :2])
                                / (stamps[i + 1] - stamps[i - 1]))
         return _FloorMotion(times=np.array(times, dtype=np.float64), velocities=np.array(vel).reshape(-1, 2),
-                            toe_speed=max(speeds) if speeds else math.inf)
+                            toe_speed=max(speeds) if speeds else math.inf,
+                            landing_speed=(float(np.percentile(speeds, BRIDGE_LANDING_SPEED_PCT)) if speeds
+                                           else math.inf))
 
     def velocity(self, start: float, end: float) -> FloatArray | None:
         """``(2,)`` m/s: the floor's velocity around the times ``start``-``end`` (None: too few flat feet seen
@@ -707,6 +731,75 @@ def _planted_bridge(curve: FloatArray, before: FloatArray, after: FloatArray, st
             toe = _hermite(u, off_toe, swing * floor_v, after[TOE], swing * v1)
             ankle, heel = toe + (1.0 - u) * rel_off + u * rel_after
         out[m, 1:] = np.stack([ankle, heel, toe])
+    return out
+
+
+def _landing_bridge(curve: FloatArray, before: FloatArray, after: FloatArray, stamps: FloatArray, *,
+                    v0: FloatArray, v1: FloatArray, floor: _FloorMotion) -> FloatArray:
+    """``curve`` ``(m, 4, 3)`` (a stretch's Hermite knee, ankle, heel and toe; floor-aligned frame) with a foot
+    that was swinging when last seen (``before``: that frame's ``(5, 3)`` points) and stands on the floor when seen
+    again (``after``) bridged as a landing: it swings on, lands, and the floor carries it to where it is seen.
+    ``v0`` / ``v1``: ``(4, 3)`` velocities of the knee, ankle, heel and toe over the frames before / after the
+    stretch; ``stamps`` the ``m + 2`` frames' times from ``lo``'s to ``hi``'s.
+
+    A user walking close to the camera, or ahead of a walker that lags, lands the swinging foot below the image's
+    bottom edge: hidden from its swing until the floor has carried it back into view, where the tracker holds it
+    where it left the view and the curves between a swinging end and a standing one cut the corner (the bench's
+    `walker_lag` session: heels 20-40 cm off for half a second).  Here the foot seen standing after the stretch
+    (its toe at most :data:`BRIDGE_PLANTED_Z` up and moving with the floor to within :data:`BRIDGE_PLANTED_SPEED`;
+    a heel already rising there is turned down about the toe, the foot flat) is carried back in time at the
+    floor's velocity (:class:`_FloorMotion`; where no flat foot was seen near the stretch, the foot's own velocity
+    after it, when that runs against its swing) to the earliest frame at which a Hermite swing of the heel from
+    where it was last seen, at its velocity then, can land on that track no faster than
+    :data:`BRIDGE_LANDING_SPEED_PCT` of the seen toes' speeds; from the landing on the foot stands flat on the
+    floor's track, before it the heel follows that swing with the ankle and toe turning linearly from their offsets
+    last seen to the flat foot's.  A foot that stood when last seen (:func:`_planted_bridge`'s), one not seen
+    standing after, a floor slower than :data:`BRIDGE_LANDING_MIN_FLOOR`, or no landing inside the stretch keeps
+    ``curve``; the knee always does."""
+    toe_v0, toe_v1 = v0[-1], v1[-1]
+    v = floor.velocity(float(stamps[0]), float(stamps[-1]))
+    if v is None and after[TOE][2] <= BRIDGE_PLANTED_Z and float(toe_v1[:2] @ toe_v0[:2]) < 0.0:
+        v = np.asarray(toe_v1[:2], dtype=np.float64)  # no flat foot seen near: the standing foot's own velocity
+    if v is None or after[TOE][2] > BRIDGE_PLANTED_Z or float(np.hypot(*(toe_v1[:2] - v))) > BRIDGE_PLANTED_SPEED:
+        return curve
+    if before[TOE][2] <= BRIDGE_PLANTED_Z and float(np.hypot(*(toe_v0[:2] - v))) <= BRIDGE_PLANTED_SPEED:
+        return curve  # standing when last seen too
+    if float(np.hypot(*v)) < BRIDGE_LANDING_MIN_FLOOR:
+        return curve
+    floor_v = np.array([v[0], v[1], 0.0])
+    t_lo, t_hi = float(stamps[0]), float(stamps[-1])
+    flat = np.stack([after[ANKLE], after[HEEL], after[TOE]])  # the foot seen after: ankle, heel, toe
+    back = flat[1] - flat[2]
+    length = float(np.hypot(back[0], back[1]))
+    if length > 0.05 and back[2] > 0.0:  # its heel already rising: turned down about the toe, the foot flat
+        up = np.array([0.0, 0.0, 1.0])
+        heading = -np.array([back[0], back[1], 0.0]) / length
+        basis, across = np.stack([heading, up]), np.cross(up, heading)
+        heel = basis @ back
+        turn = -math.atan2(heel[1], -heel[0])
+        flat = flat[2] + np.stack([_turned(basis @ r, turn) @ basis + (r @ across) * across for r in flat - flat[2]])
+    heel0, heel_v0 = before[HEEL], v0[2]
+    land_at = t_hi
+    for j in range(1, len(stamps) - 1):  # the earliest landing a swing no faster than the bound reaches
+        d = float(stamps[j]) - t_lo
+        landing = flat[1] + floor_v * (float(stamps[j]) - t_hi)
+        if _hermite_speed(heel0, d * heel_v0, landing, d * floor_v, d) <= floor.landing_speed + 1e-6:
+            land_at = float(stamps[j])
+            break
+    if land_at >= t_hi:
+        return curve
+    swing = land_at - t_lo
+    landing = flat[1] + floor_v * (land_at - t_hi)
+    rel0 = np.stack([before[ANKLE], before[HEEL], before[TOE]]) - heel0  # from the heel
+    rel1 = flat - flat[1]
+    out = curve.copy()
+    for m in range(curve.shape[0]):
+        t = float(stamps[m + 1])
+        if t >= land_at:
+            out[m, 1:] = flat + floor_v * (t - t_hi)
+        else:
+            u = (t - t_lo) / swing
+            out[m, 1:] = _hermite(u, heel0, swing * heel_v0, landing, swing * floor_v) + (1.0 - u) * rel0 + u * rel1
     return out
 
 
