@@ -799,23 +799,26 @@ def test_a_hidden_foot_that_swings_or_has_no_floor_seen_is_bridged_by_the_curves
 
 
 def _landing_foot(n: int, hidden: range, *, land: int, floor_v: float = 0.8, swing_v: float = 2.0,
-                  dt: float = 1 / 30, stance_z: float = 0.0, left_z: float = 0.0) -> tuple[list[LegPose], np.ndarray]:
+                  dt: float = 1 / 30, stance_z: float = 0.0, stance_v: float | None = None,
+                  left_raised: int = 0) -> tuple[list[LegPose], np.ndarray]:
     """``n`` poses in a floor-aligned frame (z up, floor z = 0) of a walker moving along -x at ``floor_v``, its user
-    walking close to the camera: the left foot stands flat (``left_z`` up) and rides the floor (+x); the right one
-    swings towards the camera (-x) at ``swing_v`` against the walker frame, 5 cm up, lands flat at frame ``land``
-    and rides the floor from then on, ``stance_z`` up.  The right foot is hidden over ``hidden`` (held at the last
-    frame seen, as the tracker holds a foot that left the image).  Returns the poses and the true points."""
+    walking close to the camera: the left foot stands flat (5 cm up before frame ``left_raised``) and rides the
+    floor (+x); the right one swings towards the camera (-x) at ``swing_v`` against the walker frame, 5 cm up,
+    lands flat at frame ``land`` and moves at ``stance_v`` (default: the floor's) from then on, ``stance_z`` up.
+    The right foot is hidden over ``hidden`` (held at the last frame seen, as the tracker holds a foot that left
+    the image).  Returns the poses and the true points."""
+    stance_v = floor_v if stance_v is None else stance_v
     truth = np.zeros((n, 2, 5, 3))
     heel_land = np.array([0.30, -0.1, stance_z])
     foot = np.array([[0.0, 0.0, 0.85], [-0.06, 0.0, 0.51], [-0.06, 0.0, 0.09], [0.0, 0.0, 0.0], [-0.26, 0.0, 0.0]])
     for i in range(n):
         t = i * dt
-        heel_l = np.array([0.1 + floor_v * t, 0.1, left_z])
+        heel_l = np.array([0.1 + floor_v * t, 0.1, 0.05 if i < left_raised else 0.0])
         truth[i, 0] = heel_l + foot
         if i < land:
             heel = heel_land + [swing_v * (land - i) * dt, 0.0, 0.05 - stance_z]
         else:
-            heel = heel_land + [floor_v * (i - land) * dt, 0.0, 0.0]
+            heel = heel_land + [stance_v * (i - land) * dt, 0.0, 0.0]
         truth[i, 1] = heel + foot
     poses, held = [], truth.copy()
     for i in range(n):
@@ -844,11 +847,16 @@ def test_a_foot_hidden_from_its_swing_to_its_stance_lands_and_rides_the_floor_ba
     assert err["landed"].mean() < 0.5 * err["plain"].mean()
     assert all(np.array_equal(o.points[1, :2], p.points[1, :2]) for o, p in zip(landed[gap], plain[gap]))  # hip, knee
     assert all(o is p for i, (o, p) in enumerate(zip(landed, poses)) if i not in hidden)
-    # no flat foot seen near the stretch (the other foot and the landed one stand on a mat 2.5 cm up): the floor's
-    # velocity is the standing foot's own, which runs against its swing; the same landing
-    on_mat, mat_truth = _landing_foot(40, hidden, land=land, stance_z=0.025, left_z=0.05)
+    # no flat foot seen near the stretch (the landed foot stands on a mat 2.5 cm up, the other is raised until 2 s):
+    # the floor's velocity is the standing foot's own, which is how the floor moves while the walker rolls
+    on_mat, mat_truth = _landing_foot(90, hidden, land=land, stance_z=0.025, left_raised=60)
     out = bridge_hidden_legs(on_mat, hide_below=0.25, floor_frame=True)
     assert np.abs(np.array([p.points[1, 2:] for p in out[gap]])[-6:] - mat_truth[gap, 1, 2:][-6:]).max() < 1e-9
+    # ... and not where the foot's own velocity is not the rolling floor's (a foot seen again still swinging, low over
+    # the floor, towards the camera): the curves alone
+    sliding, _ = _landing_foot(90, hidden, land=land, stance_z=0.025, stance_v=-1.0, left_raised=60)
+    assert ([p.points.tolist() for p in bridge_hidden_legs(sliding, hide_below=0.25, floor_frame=True)]
+            == [p.points.tolist() for p in bridge_hidden_legs(sliding, hide_below=0.25)])
     # live, frame by frame: as the offline bridge of the frames received when the stretch is decided
     floor = FloorPlane.from_camera_pose(height=0.5, pitch=np.radians(30.0))
     camera = _to_camera(poses, floor)

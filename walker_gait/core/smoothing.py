@@ -658,6 +658,14 @@ class _FloorMotion:
                             landing_speed=(float(np.percentile(speeds, BRIDGE_LANDING_SPEED_PCT)) if speeds
                                            else math.inf))
 
+    def rolling_velocity(self) -> FloatArray | None:
+        """``(2,)`` m/s: the floor's velocity over the recording while the walker rolls (the median over the flat
+        feet seen moving at least :data:`BRIDGE_LANDING_MIN_FLOOR`; None: too few of them)."""
+        moving = np.hypot(self.velocities[:, 0], self.velocities[:, 1]) >= BRIDGE_LANDING_MIN_FLOOR
+        if int(moving.sum()) < BRIDGE_FLOOR_SAMPLES:
+            return None
+        return np.asarray(np.median(self.velocities[moving], axis=0), dtype=np.float64)
+
     def velocity(self, start: float, end: float) -> FloatArray | None:
         """``(2,)`` m/s: the floor's velocity around the times ``start``-``end`` (None: too few flat feet seen
         there)."""
@@ -749,7 +757,8 @@ def _landing_bridge(curve: FloatArray, before: FloatArray, after: FloatArray, st
     (its toe at most :data:`BRIDGE_PLANTED_Z` up and moving with the floor to within :data:`BRIDGE_PLANTED_SPEED`;
     a heel already rising there is turned down about the toe, the foot flat) is carried back in time at the
     floor's velocity (:class:`_FloorMotion`; where no flat foot was seen near the stretch, the foot's own velocity
-    after it, when that runs against its swing) to the earliest frame at which a Hermite swing of the heel from
+    after it, if that is within :data:`BRIDGE_PLANTED_SPEED` of the floor's while the walker rolls,
+    :meth:`_FloorMotion.rolling_velocity`) to the earliest frame at which a Hermite swing of the heel from
     where it was last seen, at its velocity then, can land on that track no faster than
     :data:`BRIDGE_LANDING_SPEED_PCT` of the seen toes' speeds; from the landing on the foot stands flat on the
     floor's track, before it the heel follows that swing with the ankle and toe turning linearly from their offsets
@@ -758,8 +767,11 @@ def _landing_bridge(curve: FloatArray, before: FloatArray, after: FloatArray, st
     ``curve``; the knee always does."""
     toe_v0, toe_v1 = v0[-1], v1[-1]
     v = floor.velocity(float(stamps[0]), float(stamps[-1]))
-    if v is None and after[TOE][2] <= BRIDGE_PLANTED_Z and float(toe_v1[:2] @ toe_v0[:2]) < 0.0:
-        v = np.asarray(toe_v1[:2], dtype=np.float64)  # no flat foot seen near: the standing foot's own velocity
+    if v is None:  # no flat foot seen near: the foot's own velocity after, if the floor moves so while it moves
+        rolling = floor.rolling_velocity()
+        if rolling is None or float(np.hypot(*(toe_v1[:2] - rolling))) > BRIDGE_PLANTED_SPEED:
+            return curve
+        v = np.asarray(toe_v1[:2], dtype=np.float64)
     if v is None or after[TOE][2] > BRIDGE_PLANTED_Z or float(np.hypot(*(toe_v1[:2] - v))) > BRIDGE_PLANTED_SPEED:
         return curve
     if before[TOE][2] <= BRIDGE_PLANTED_Z and float(np.hypot(*(toe_v0[:2] - v))) <= BRIDGE_PLANTED_SPEED:
