@@ -724,6 +724,20 @@ def test_a_backward_pass_of_the_tracker_tracks_the_legs(seq) -> None:  # noqa: A
         assert p.points[0, :3, 0].mean() > p.points[1, :3, 0].mean()
 
 
+def _right_foot_held(truth: np.ndarray, hidden: range, dt: float) -> list[LegPose]:
+    """Poses of the true points ``truth`` ``(n, 2, 5, 3)`` with the right foot hidden over ``hidden``: its leg held at
+    the last frame seen, its calf and foot's visibility 0, as the tracker holds a leg it does not see."""
+    poses, held = [], truth.copy()
+    for i in range(len(truth)):
+        vis = np.ones((2, 3))
+        if i in hidden:
+            vis[1, 1:] = 0.0
+            held[i, 1] = held[i - 1, 1]
+        poses.append(LegPose(stamp=i * dt, points=held[i].copy(), visibility=vis, status=TrackStatus.TRACKING,
+                             confidence=0.9))
+    return poses
+
+
 def _rolling_foot(n: int, hidden: range, *, floor_v: float = 0.6, dt: float = 1 / 30,
                   swing_from: int | None = None) -> tuple[list[LegPose], np.ndarray]:
     """``n`` poses in a floor-aligned frame (z up, floor z = 0) of a walker moving along -x: the floor, and a planted
@@ -756,15 +770,7 @@ def _rolling_foot(n: int, hidden: range, *, floor_v: float = 0.6, dt: float = 1 
         truth[i, 1] = [knee + [0.0, 0.0, 0.4], knee, ank, heel, toe]
         if swing_from is not None and i >= swing_from:
             truth[i, 1] = truth[swing_from - 1, 1] + [-2.5 * (i - swing_from + 1) * dt, 0.0, 0.03]
-    poses, held = [], truth.copy()
-    for i in range(n):
-        vis = np.ones((2, 3))
-        if i in hidden:
-            vis[1, 1:] = 0.0
-            held[i, 1] = held[i - 1, 1]
-        poses.append(LegPose(stamp=i * dt, points=held[i].copy(), visibility=vis, status=TrackStatus.TRACKING,
-                             confidence=0.9))
-    return poses, truth
+    return _right_foot_held(truth, hidden, dt), truth
 
 
 def test_a_hidden_foot_standing_on_the_floor_rolls_over_its_toe_as_the_floor_carries_it() -> None:
@@ -820,15 +826,7 @@ def _landing_foot(n: int, hidden: range, *, land: int, floor_v: float = 0.8, swi
         else:
             heel = heel_land + [stance_v * (i - land) * dt, 0.0, 0.0]
         truth[i, 1] = heel + foot
-    poses, held = [], truth.copy()
-    for i in range(n):
-        vis = np.ones((2, 3))
-        if i in hidden:
-            vis[1, 1:] = 0.0
-            held[i, 1] = held[i - 1, 1]
-        poses.append(LegPose(stamp=i * dt, points=held[i].copy(), visibility=vis, status=TrackStatus.TRACKING,
-                             confidence=0.9))
-    return poses, truth
+    return _right_foot_held(truth, hidden, dt), truth
 
 
 def test_a_foot_hidden_from_its_swing_to_its_stance_lands_and_rides_the_floor_back_into_view() -> None:
