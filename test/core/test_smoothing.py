@@ -845,6 +845,16 @@ def test_a_foot_hidden_from_its_swing_to_its_stance_lands_and_rides_the_floor_ba
     assert err["landed"].mean() < 0.5 * err["plain"].mean()
     assert all(np.array_equal(o.points[1, :2], p.points[1, :2]) for o, p in zip(landed[gap], plain[gap]))  # hip, knee
     assert all(o is p for i, (o, p) in enumerate(zip(landed, poses)) if i not in hidden)
+    # seen again with its heel already rising (turned 15 deg about the toe): the hidden frames stand flat all the same
+    c, s_ = np.cos(np.radians(15.0)), np.sin(np.radians(15.0))
+    rising = [replace(p, points=p.points.copy()) for p in poses]
+    pts = rising[hidden.stop].points[1]
+    for j in (2, 3):  # ankle, heel about the toe, heel up
+        dx, dz = pts[j, 0] - pts[4, 0], pts[j, 2] - pts[4, 2]
+        pts[j, 0], pts[j, 2] = pts[4, 0] + c * dx - s_ * dz, pts[4, 2] + s_ * dx + c * dz
+    assert pts[3, 2] > 0.06
+    out = bridge_hidden_legs(rising, hide_below=0.25, floor_frame=True)
+    assert np.abs(np.array([p.points[1, 2:] for p in out[gap]])[-6:] - truth[gap, 1, 2:][-6:]).max() < 1e-9
     # no flat foot seen near the stretch (the landed foot stands on a mat 2.5 cm up, the other is raised until 2 s):
     # the floor's velocity is the standing foot's own, which is how the floor moves while the walker rolls
     on_mat, mat_truth = _landing_foot(90, hidden, land=land, stance_z=0.025, left_raised=60)

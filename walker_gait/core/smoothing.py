@@ -772,7 +772,7 @@ def _landing_bridge(curve: FloatArray, before: FloatArray, after: FloatArray, st
         if rolling is None or float(np.hypot(*(toe_v1[:2] - rolling))) > BRIDGE_PLANTED_SPEED:
             return curve
         v = np.asarray(toe_v1[:2], dtype=np.float64)
-    if v is None or after[TOE][2] > BRIDGE_PLANTED_Z or float(np.hypot(*(toe_v1[:2] - v))) > BRIDGE_PLANTED_SPEED:
+    if after[TOE][2] > BRIDGE_PLANTED_Z or float(np.hypot(*(toe_v1[:2] - v))) > BRIDGE_PLANTED_SPEED:
         return curve
     if before[TOE][2] <= BRIDGE_PLANTED_Z and float(np.hypot(*(toe_v0[:2] - v))) <= BRIDGE_PLANTED_SPEED:
         return curve  # standing when last seen too
