@@ -675,6 +675,13 @@ class _FloorMotion:
         return np.asarray(np.median(self.velocities[near], axis=0), dtype=np.float64)
 
 
+def _stands(toe: FloatArray, toe_velocity: FloatArray, floor_velocity: FloatArray) -> bool:
+    """A foot whose ``toe`` (floor-aligned frame) is at most :data:`BRIDGE_PLANTED_Z` up and moves (``toe_velocity``,
+    m/s) with the floor (``floor_velocity``, ``(2,)``) to within :data:`BRIDGE_PLANTED_SPEED` stands on it."""
+    return bool(toe[2] <= BRIDGE_PLANTED_Z
+                and float(np.hypot(*(toe_velocity[:2] - floor_velocity))) <= BRIDGE_PLANTED_SPEED)
+
+
 def _planted_bridge(curve: FloatArray, before: FloatArray, after: FloatArray, stamps: FloatArray, *,
                     v0: FloatArray, v1: FloatArray, floor: _FloorMotion) -> FloatArray:
     """``curve`` ``(m, 4, 3)`` (a stretch's Hermite knee, ankle, heel and toe; floor-aligned frame) with a foot that
@@ -694,7 +701,7 @@ def _planted_bridge(curve: FloatArray, before: FloatArray, after: FloatArray, st
     seen near the stretch, or a foot without a length, keeps ``curve``."""
     toe0 = before[TOE]
     v = floor.velocity(float(stamps[0]), float(stamps[-1]))
-    if v is None or toe0[2] > BRIDGE_PLANTED_Z or float(np.hypot(*(v0[:2] - v))) > BRIDGE_PLANTED_SPEED:
+    if v is None or not _stands(toe0, v0, v):
         return curve
     heading = before[TOE] - before[HEEL]
     heading[2] = 0.0
@@ -772,9 +779,9 @@ def _landing_bridge(curve: FloatArray, before: FloatArray, after: FloatArray, st
         if rolling is None or float(np.hypot(*(toe_v1[:2] - rolling))) > BRIDGE_PLANTED_SPEED:
             return curve
         v = np.asarray(toe_v1[:2], dtype=np.float64)
-    if after[TOE][2] > BRIDGE_PLANTED_Z or float(np.hypot(*(toe_v1[:2] - v))) > BRIDGE_PLANTED_SPEED:
+    if not _stands(after[TOE], toe_v1, v):
         return curve
-    if before[TOE][2] <= BRIDGE_PLANTED_Z and float(np.hypot(*(toe_v0[:2] - v))) <= BRIDGE_PLANTED_SPEED:
+    if _stands(before[TOE], toe_v0, v):
         return curve  # standing when last seen too
     if float(np.hypot(*v)) < BRIDGE_LANDING_MIN_FLOOR:
         return curve
