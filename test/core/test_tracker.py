@@ -60,6 +60,7 @@ def test_presets() -> None:
                 {"footprint_max_s": 0.0}, {"blank_view_share": 0.0}, {"blank_view_share": 1.5},
                 {"cue2d_focal": -1.0}, {"cue2d_focal": float("inf")}, {"redetect_every_s": -1.0},
                 {"redetect_every_s": float("nan")}, {"redetect_margin": -0.5}, {"redetect_rounds": -1},
+                {"coast_redetect_s": -0.1}, {"coast_redetect_s": float("inf")},
                 {"root_compensation": -0.1}, {"root_compensation": 1.5}):
         with pytest.raises(ValueError):
             preset("default", **bad)
@@ -538,6 +539,34 @@ def test_a_track_stuck_in_a_wrong_pose_is_replaced_by_a_redetection_that_scores_
         assert max(foot[6:]) < 0.1, foot  # ... then found again (left ankle, heel, toe)
         n_init, foot = _raised_left_leg_run(seq, seed, redetect_every_s=0.0, **off)
         assert n_init == 0 and min(foot) > 0.5, foot  # without it nothing brings it back
+
+
+def test_a_track_that_resumes_after_a_long_coast_is_redetected_on_that_frame(seq) -> None:  # noqa: ANN001
+    """With ``coast_redetect_s`` a track that resumes after coasting through frames without foreground for at least
+    that long since its last tracked frame is searched afresh on the frame it resumes on (the legs moved unseen).  A
+    left leg raised above the image before the dropout, with the periodic re-detection and every other rule that
+    would catch it off, is found on the first frame after a 7-frame coast (0.23 s at 30 Hz); after a 3-frame coast
+    (0.13 s), or with the option off, the track resumes as it was held and the leg stays lost."""
+    empty = np.full((KINECT.height, KINECT.width), np.nan, np.float32)
+    off = {"lost_leg_frames": 0, "hidden_search_share": 0.0, "footprint_sigma": np.inf, "redetect_every_s": 0.0,
+           "min_explained": 0.0}
+
+    def run(coast: int, coast_redetect_s: float, seed: int) -> list[float]:
+        cfg = preset("default", n_particles=64, init_rounds=4, coast_redetect_s=coast_redetect_s, **off)
+        tr = LegTracker(cfg, KINECT, rng=np.random.default_rng(seed))
+        _run(tr, seq.frames[:8])
+        _raise_left_leg(tr)
+        for f in seq.frames[8:8 + coast]:  # the frames' stamps, without foreground: held
+            pose = tr.update(stamp=f.stamp, points=np.zeros((0, 3)), depth_fg=empty, floor=f.floor)
+            assert pose.status == TrackStatus.DEGRADED and pose.confidence == 0.0
+        later = seq.frames[8 + coast:]
+        poses = _run(tr, later)
+        return [float(np.linalg.norm(p.points[0, 2:] - f.gt[0, 2:], axis=-1).mean()) for p, f in zip(poses, later)]
+
+    for seed in (0, 1):
+        assert max(run(7, 0.2, seed)) < 0.1  # found on the frame the track resumes on (left ankle, heel, toe)
+        assert min(run(3, 0.2, seed)) > 0.5  # a short coast resumes from the held track
+        assert min(run(7, 0.0, seed)) > 0.5  # off: nothing brings the leg back
 
 
 def test_a_redetection_that_is_not_adopted_leaves_the_track_exactly_as_without_it(seq) -> None:  # noqa: ANN001

@@ -119,7 +119,14 @@ lives in the floor-aligned *body* frame of :mod:`walker_gait.core.leg_model`):
    turned 40° kept a model crouched 30 cm back with its pelvis square to the camera (the hips are out of view),
    10-35 cm off for seconds, while a search from scratch on the same frame came within 6-7 cm and scored higher.
    The search draws from a random stream of its own (spawned from ``rng``), so a re-detection that is not adopted
-   leaves the track bit for bit as it would be without it.
+   leaves the track bit for bit as it would be without it.  A track that resumes after coasting (a dropout or a
+   blanked view, step 1) for at least ``coast_redetect_s`` since its last tracked frame is re-detected on the frame
+   it resumes on as well (``default``: 0.4 s, about a swing): the legs moved unseen meanwhile, and a user walking
+   ahead of a lagging walker, a shin nearer than the sensor's range for half a second at a time, came back with the
+   held model legs on the wrong leg or beside the legs for the next half second (the bench's ``walker_lag``
+   session, one pass: frames off by more than 10 cm at the walker 9.8 -> 6.3 %).  Shorter coasts (a leg before the
+   lens for a third of a second in ``occlusion``) resume from the held track: re-detected, they came back no better
+   on average (DEVELOPERS.md, seventy-seventh session).
 
 Left/right identity: the state keeps the left hip at +y (anatomical left) of the right hip
 (``|hip_azimuth| < 0.7``) and the detection assigns blobs by the same axis, so legs cannot
@@ -316,6 +323,7 @@ class TrackerConfig:
     presence_band: float = 0.04  # width of the image border band (fraction of the image) through which legs leave the view
     presence_width: float = 0.04  # m, widest foreground part in that band that shows a leg (a walker's tube is thinner)
     coast_frames: int = 0  # frames a track is held (DEGRADED, confidence 0) through a foreground dropout before it is dropped (0 = at once)
+    coast_redetect_s: float = 0.0  # s; a track that resumes after coasting (`coast_frames`) for at least this long since its last tracked frame is searched afresh on the frame it resumes on and replaced where that scores `redetect_margin` higher, as a re-detection: the legs moved unseen meanwhile (0 = never, paper)
     blank_view_share: float = 1.0  # a frame in which at least this share of the tracked calves' and feet's pixels (last estimate) has no depth is a blanked view (a shin nearer than the sensor's range hides both legs): the track coasts through it like a dropout, up to `coast_frames` (1 = off, paper)
     track_confidence: float = 0.55  # confidence for TRACKING
     degraded_confidence: float = 0.4  # below: DEGRADED
@@ -349,6 +357,8 @@ class TrackerConfig:
                 and self.redetect_rounds >= 0):
             raise ValueError("redetect_every_s must be finite and >= 0 (0 = never), redetect_margin and redetect_rounds "
                              f">= 0, got {self.redetect_every_s}, {self.redetect_margin}, {self.redetect_rounds}")
+        if not (self.coast_redetect_s >= 0 and math.isfinite(self.coast_redetect_s)):
+            raise ValueError(f"coast_redetect_s must be finite and >= 0 (0 = never), got {self.coast_redetect_s}")
         if not (self.passing_jump > 0 and self.passing_sigma > 0):
             raise ValueError(f"passing_jump and passing_sigma must be > 0, got {self.passing_jump}, {self.passing_sigma}")
         if self.hidden_search_frames < 1:
@@ -449,6 +459,7 @@ DEFAULT = TrackerConfig(
     hidden_leg_first=True,
     passing_jump=0.035,
     coast_frames=15,
+    coast_redetect_s=0.4,
     blank_view_share=0.7,
     presence_height=0.40,
     fine_2d_only=True,
@@ -930,6 +941,7 @@ class LegTracker:
             return LegPose.no_user(stamp)
         if frame is None:
             frame = self._prepare(pts, depth, floor, no_depth)
+        resumed = abs(float(stamp) - self._stamp) if self._coasted else 0.0  # s since the last tracked frame
         self._coasted = 0
         self._stamp = float(stamp)
         searching = False
@@ -955,7 +967,8 @@ class LegTracker:
         self._last_ll = None
         if searching:
             self._redetect_stamp = float(stamp)
-        elif cfg.redetect_every_s > 0 and not abs(float(stamp) - self._redetect_stamp) < cfg.redetect_every_s:
+        elif (cfg.redetect_every_s > 0 and not abs(float(stamp) - self._redetect_stamp) < cfg.redetect_every_s) or (
+                0.0 < cfg.coast_redetect_s <= resumed):
             self._redetect_stamp = float(stamp)
             self._redetect(frame)
         pose, conf, explained, unsupported = self._estimate(frame, stamp)
