@@ -604,11 +604,12 @@ def bridge_hidden_legs(poses: Sequence[LegPose], *, hide_below: float, max_gap_s
             m1 = span * (poses[hi + k].points[leg, idx] - p1) / dt1
             curve = np.stack([_hermite((stamps[i] - stamps[lo]) / span, p0, m0, p1, m1) for i in range(a, hi)])
             if floor is not None:
+                near = floor.velocity(float(stamps[lo]), float(stamps[hi]))
                 planted = _planted_bridge(curve, poses[lo].points[leg], poses[hi].points[leg], stamps[lo:hi + 1],
-                                          v0=m0[-1] / span, v1=m1[-1] / span, floor=floor)
+                                          v0=m0[-1] / span, v1=m1[-1] / span, floor=floor, near=near)
                 curve = planted if planted is not curve else _landing_bridge(
                     curve, poses[lo].points[leg], poses[hi].points[leg], stamps[lo:hi + 1], v0=m0 / span,
-                    v1=m1 / span, floor=floor)
+                    v1=m1 / span, floor=floor, near=near)
             for i in range(a, hi):
                 out[i] = _with_leg_points(out[i], leg, curve[i - a])
     return out
@@ -683,11 +684,12 @@ def _stands(toe: FloatArray, toe_velocity: FloatArray, floor_velocity: FloatArra
 
 
 def _planted_bridge(curve: FloatArray, before: FloatArray, after: FloatArray, stamps: FloatArray, *,
-                    v0: FloatArray, v1: FloatArray, floor: _FloorMotion) -> FloatArray:
+                    v0: FloatArray, v1: FloatArray, floor: _FloorMotion, near: FloatArray | None) -> FloatArray:
     """``curve`` ``(m, 4, 3)`` (a stretch's Hermite knee, ankle, heel and toe; floor-aligned frame) with a foot that
     stood on the floor when last seen (``before``: that frame's ``(5, 3)`` points, ``v0`` its toe's velocity over
     the frames before) bridged as a walking foot moves; ``after`` the points seen after the stretch, ``v1`` that
-    toe's velocity; ``stamps`` the ``m + 2`` frames' times from ``lo``'s to ``hi``'s.
+    toe's velocity; ``stamps`` the ``m + 2`` frames' times from ``lo``'s to ``hi``'s; ``near`` the floor's velocity
+    around the stretch (``floor.velocity`` over ``stamps``' ends; None: too few flat feet seen there).
 
     The trailing foot under a trouser hem or behind the leading leg is hidden from its heel-off to its early swing
     (``baggy_trousers``, ``occlusion``): its toe stays on the floor, which carries it back through the walker frame,
@@ -700,7 +702,7 @@ def _planted_bridge(curve: FloatArray, before: FloatArray, after: FloatArray, st
     not on the floor, or moved faster than :data:`BRIDGE_PLANTED_SPEED` against it, or a floor with too few flat feet
     seen near the stretch, or a foot without a length, keeps ``curve``."""
     toe0 = before[TOE]
-    v = floor.velocity(float(stamps[0]), float(stamps[-1]))
+    v = near
     if v is None or not _stands(toe0, v0, v):
         return curve
     heading = before[TOE] - before[HEEL]
@@ -750,12 +752,12 @@ def _planted_bridge(curve: FloatArray, before: FloatArray, after: FloatArray, st
 
 
 def _landing_bridge(curve: FloatArray, before: FloatArray, after: FloatArray, stamps: FloatArray, *,
-                    v0: FloatArray, v1: FloatArray, floor: _FloorMotion) -> FloatArray:
+                    v0: FloatArray, v1: FloatArray, floor: _FloorMotion, near: FloatArray | None) -> FloatArray:
     """``curve`` ``(m, 4, 3)`` (a stretch's Hermite knee, ankle, heel and toe; floor-aligned frame) with a foot
     that was swinging when last seen (``before``: that frame's ``(5, 3)`` points) and stands on the floor when seen
     again (``after``) bridged as a landing: it swings on, lands, and the floor carries it to where it is seen.
     ``v0`` / ``v1``: ``(4, 3)`` velocities of the knee, ankle, heel and toe over the frames before / after the
-    stretch; ``stamps`` the ``m + 2`` frames' times from ``lo``'s to ``hi``'s.
+    stretch; ``stamps`` the ``m + 2`` frames' times from ``lo``'s to ``hi``'s; ``near`` as :func:`_planted_bridge`'s.
 
     A user walking close to the camera, or ahead of a walker that lags, lands the swinging foot below the image's
     bottom edge: hidden from its swing until the floor has carried it back into view, where the tracker holds it
@@ -773,7 +775,7 @@ def _landing_bridge(curve: FloatArray, before: FloatArray, after: FloatArray, st
     standing after, a floor slower than :data:`BRIDGE_LANDING_MIN_FLOOR`, or no landing inside the stretch keeps
     ``curve``; the knee always does."""
     toe_v0, toe_v1 = v0[-1], v1[-1]
-    v = floor.velocity(float(stamps[0]), float(stamps[-1]))
+    v = near
     if v is None:  # no flat foot seen near: the foot's own velocity after, if the floor moves so while it moves
         rolling = floor.rolling_velocity()
         if rolling is None or float(np.hypot(*(toe_v1[:2] - rolling))) > BRIDGE_PLANTED_SPEED:
