@@ -70,7 +70,8 @@ NODE_PARAMS: dict[str, list[tuple[str, Any, str]]] = {
                               "leg_length_m 0.91`; the other parameters are read at start)"),
         ("bridge_hidden_s", 1.0, "s; `leg_track_bridged` (LegTrack): `leg_track` with each stretch in which a foot was "
                                  "hidden (its visibility under `hide_below`; the tracker holds its pose while the "
-                                 "real foot rolls off the floor and swings) bridged as `walker-gait process` bridges "
+                                 "real foot rolls off the floor and swings; both feet in a frame the tracker held, "
+                                 "DEGRADED at confidence 0) bridged as `walker-gait process` bridges "
                                  "it, once the foot has been seen again for 6 frames, if that is within this long "
                                  "of its last frame seen (a foot planted when last seen rolled over its toe as the "
                                  "floor carries it; one last seen swinging and seen again standing landed and "

@@ -394,6 +394,35 @@ def test_a_hidden_foot_is_bridged_between_where_it_was_last_seen_and_where_it_is
         assert o.shoe_rise[0] == 0.3 and o.shoe_turn[0] == 0.05
 
 
+def test_a_held_pose_is_bridged_as_both_feet_hidden_offline_and_live() -> None:
+    """A tracker coasting through a dropout or a blanked view repeats its last pose, ``DEGRADED`` at confidence 0,
+    with the visibility it had: it observed nothing, so both feet count as hidden there and both legs are bridged
+    from the frames before to those after (offline and live alike), where the held pose stood still while the legs
+    went on."""
+    poses, truth = _walking(40, {})
+    gap = slice(15, 27)
+    held = [replace(poses[14], stamp=p.stamp, status=TrackStatus.DEGRADED, confidence=0.0) for p in poses[gap]]
+    poses[gap] = held
+    out = bridge_hidden_legs(poses, hide_below=0.25)
+    for leg in (0, 1):
+        err_held = np.abs(np.array([p.points[leg, 1:] for p in poses[gap]]) - truth[gap, leg, 1:]).max()
+        err_bridged = np.abs(np.array([p.points[leg, 1:] for p in out[gap]]) - truth[gap, leg, 1:]).max()
+        assert err_held > 0.03 and err_bridged < 0.1 * err_held
+    assert all(o.status == TrackStatus.DEGRADED and o.confidence == 0.0 for o in out[gap])  # still said to be held
+    assert all(o is p for i, (o, p) in enumerate(zip(out, poses)) if not 15 <= i < 27)
+    floor = FloorPlane.from_camera_pose(height=0.5, pitch=np.radians(30.0))
+    live, when = _live(LiveBridge(hide_below=0.25), poses, [floor] * len(poses))
+    k = BRIDGE_FIT_FRAMES
+    assert when[15:27] == [27 + k] * 12  # held until the legs had been tracked again for k + 1 frames
+    offline = reported_poses(poses[:27 + k + 1], hide_below=0.25, lowpass_hz=0.0, floors=[floor] * (27 + k + 1))
+    for o, want, p in zip(live[gap], offline[gap], poses[gap]):
+        assert np.allclose(o.points, want.points, atol=1e-12, rtol=0.0)
+        assert not np.allclose(o.points[:, 2:], p.points[:, 2:], atol=0.01)  # moved off the held pose
+    # a frame tracked at a low confidence is an observation: left as tracked
+    low = [replace(p, confidence=0.05) if 15 <= i < 27 else p for i, p in enumerate(poses)]
+    assert all(o is p for o, p in zip(bridge_hidden_legs(low, hide_below=0.25), low))
+
+
 def test_a_foot_moving_steadily_is_bridged_exactly() -> None:
     n, dt = 30, 0.05
     poses = []

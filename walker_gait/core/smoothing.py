@@ -522,7 +522,12 @@ def _has_points(pose: LegPose) -> bool:
 
 
 def _feet_hidden(pose: LegPose, hide_below: float) -> NDArray[np.bool_]:
-    """``(2,)``: which of the pose's feet are seen less than ``hide_below`` (their visibility); none without one."""
+    """``(2,)``: which of the pose's feet are seen less than ``hide_below`` (their visibility); none without one.  Both
+    in a held pose (the tracker coasting through a dropout or a blanked view: ``DEGRADED`` at confidence 0, its last
+    pose repeated), which observed nothing: the legs went on meanwhile (a user ahead of a lagging walker, the view
+    blanked for half a second at a time), and a held foot's standstill is no measure of the floor's motion."""
+    if pose.status == TrackStatus.DEGRADED and pose.confidence == 0.0:
+        return np.ones(2, dtype=bool)
     if pose.visibility is None:
         return np.zeros(2, dtype=bool)
     return np.asarray(pose.visibility, dtype=np.float64)[:, 2] < hide_below
@@ -550,8 +555,8 @@ def bridge_hidden_legs(poses: Sequence[LegPose], *, hide_below: float, max_gap_s
     A foot seen less than ``hide_below`` (the tracker's ``hide_below``) is out of the tracker's likelihood, which
     holds its pose; the real foot meanwhile rolls off the floor, which carries it back through the walker frame,
     and swings through unseen: in the merged track a hidden foot's heel was 10.6 cm off on average, 5.2 cm ahead of
-    the real one (ten sweep runs, DEVELOPERS.md, fifty-second session).  Offline both ends of the stretch are
-    known: where the leg was last seen and how it moved then, where it is seen again and how it moves there.
+    the real one (ten sweep runs, DEVELOPERS.md, fifty-second session).  A held pose (the tracker coasting) has
+    both feet hidden (:func:`_feet_hidden`).  Offline both ends of the stretch are known: where the leg was last seen and how it moved then, where it is seen again and how it moves there.
     Inside the stretch its knee, ankle, heel and toe (``BRIDGE_POINTS``) follow cubic Hermite curves in time from
     the last frame before to the first frame after it, each end's velocity the mean over ``fit_frames`` frames
     outside the stretch: the spline gap fill of marker-based motion capture, with both ends' velocities.  A
