@@ -556,7 +556,8 @@ def bridge_hidden_legs(poses: Sequence[LegPose], *, hide_below: float, max_gap_s
     holds its pose; the real foot meanwhile rolls off the floor, which carries it back through the walker frame,
     and swings through unseen: in the merged track a hidden foot's heel was 10.6 cm off on average, 5.2 cm ahead of
     the real one (ten sweep runs, DEVELOPERS.md, fifty-second session).  A held pose (the tracker coasting) has
-    both feet hidden (:func:`_feet_hidden`).  Offline both ends of the stretch are known: where the leg was last seen and how it moved then, where it is seen again and how it moves there.
+    both feet hidden (:func:`_feet_hidden`).  Offline both ends of the stretch are known: where the leg was last
+    seen and how it moved then, where it is seen again and how it moves there.
     Inside the stretch its knee, ankle, heel and toe (``BRIDGE_POINTS``) follow cubic Hermite curves in time from
     the last frame before to the first frame after it, each end's velocity the mean over ``fit_frames`` frames
     outside the stretch: the spline gap fill of marker-based motion capture, with both ends' velocities.  A
