@@ -708,8 +708,7 @@ def _planted_bridge(curve: FloatArray, before: FloatArray, after: FloatArray, st
     not on the floor, or moved faster than :data:`BRIDGE_PLANTED_SPEED` against it, or a floor with too few flat feet
     seen near the stretch, or a foot without a length, keeps ``curve``."""
     toe0 = before[TOE]
-    v = near
-    if v is None or not _stands(toe0, v0, v):
+    if near is None or not _stands(toe0, v0, near):
         return curve
     heading = before[TOE] - before[HEEL]
     heading[2] = 0.0
@@ -722,7 +721,7 @@ def _planted_bridge(curve: FloatArray, before: FloatArray, after: FloatArray, st
     across = np.cross(up, heading)
     basis = np.stack([heading, up])  # the foot's vertical plane: along its heading, up
 
-    floor_v = np.array([v[0], v[1], 0.0])
+    floor_v = np.array([near[0], near[1], 0.0])
     t_lo, t_hi = float(stamps[0]), float(stamps[-1])
     off_at = t_lo  # latest toe-off from which a swing no faster than any seen reaches the toe seen after
     for j in range(len(stamps) - 2, -1, -1):
