@@ -16,6 +16,7 @@ from walker_gait.core.smoothing import (
     IDENTITY_COST_PER_M,
     IDENTITY_MARGIN_M,
     BRIDGE_MAX_S,
+    BRIDGE_PLANTED_Z,
     BRIDGE_POINTS,
     LiveBridge,
     SWITCH_COST_PER_M,
@@ -821,6 +822,25 @@ def test_a_hidden_foot_standing_on_the_floor_rolls_over_its_toe_as_the_floor_car
            for name, out in (("rolled", bridge_hidden_legs(poses, hide_below=0.25, floor_frame=True)),
                              ("plain", bridge_hidden_legs(poses, hide_below=0.25)))}
     assert err["plain"] > 0.08 and err["rolled"] < 0.7 * err["plain"]
+
+
+def test_a_hidden_foot_standing_under_a_trouser_hem_is_rolled_though_its_toe_reads_centimetres_up() -> None:
+    """The toe is measured on the shoe's front above the floor cut: under a hem a standing foot's toe reads up to
+    about 4 cm up.  Such a foot, moving with the floor, is still taken for planted and rolled over its toe; one
+    whose toe is higher than :data:`BRIDGE_PLANTED_Z` is left to the curves."""
+    gap = slice(8, 18)
+    for lift, rolls in ((0.04, True), (BRIDGE_PLANTED_Z + 0.01, False)):
+        poses, truth = _rolling_foot(32, range(8, 18))
+        up = np.zeros((2, 5, 3))
+        up[1, :, 2] = lift  # the right leg reads `lift` higher throughout: its toe that far over the floor
+        raised = [replace(p, points=p.points + up) for p in poses]
+        out = bridge_hidden_legs(raised, hide_below=0.25, floor_frame=True)
+        plain = bridge_hidden_legs(raised, hide_below=0.25)
+        err = np.linalg.norm(np.array([p.points[1, 2:] for p in out[gap]]) - (truth + up)[gap, 1, 2:], axis=-1)
+        if rolls:
+            assert err.max() < 1e-3  # as on the floor: the toe with the floor, the heel up as its knee lets it
+        else:
+            assert [p.points.tolist() for p in out] == [p.points.tolist() for p in plain]
 
 
 def test_a_hidden_foot_that_swings_or_has_no_floor_seen_is_bridged_by_the_curves_alone() -> None:

@@ -124,9 +124,14 @@ BRIDGE_FIT_FRAMES = 5
 velocity is the mean over that many frames: one frame's difference carries the tracker's jitter)."""
 BRIDGE_POINTS = (1, 2, 3, 4)
 """Points a bridge replaces: knee, ankle, heel and toe (the hip is the pelvis's, tracked through any hiding)."""
-BRIDGE_PLANTED_Z = 0.03
+BRIDGE_PLANTED_Z = 0.045
 """m: in a floor-aligned frame, a hidden foot whose toe stood at most this high over the floor in the last frame seen
-before the stretch, ...  """
+before the stretch, ...  The toe is measured on the shoe's front above the segmentation's floor cut, and under a
+trouser hem it reads higher: in `baggy_trousers` trailing feet that stood, moving with the floor, read 3.1-4.2 cm up.
+At 3 cm (to the seventy-seventh session) they were left to the curves, heels held low and toes forward; at 4.5 cm 14 of
+the 134 planted stretches of the baggy, occlusion and slow sessions of sweep sets C and A are such feet (seventy-eighth
+session: set C's heels there 3.18 -> 3.13 cm, toes 2.36 -> 2.33, set A's 3.24 -> 3.23 and 2.51 -> 2.48; 4.5 and 6 cm give
+the same figures on set C)."""
 BRIDGE_PLANTED_SPEED = 0.5
 """m/s: ... and moved with the floor to within this (over the :data:`BRIDGE_FIT_FRAMES` before), stood on it: its toe
 is carried with the floor until it can leave it (:func:`bridge_hidden_legs`).  Over the 166 stretches of sweep sets C
