@@ -754,7 +754,7 @@ def test_a_backward_pass_of_the_tracker_tracks_the_legs(seq) -> None:  # noqa: A
         assert p.points[0, :3, 0].mean() > p.points[1, :3, 0].mean()
 
 
-def _right_foot_held(truth: np.ndarray, hidden: range, dt: float) -> list[LegPose]:
+def _right_foot_held(truth: np.ndarray, hidden: range | set[int], dt: float) -> list[LegPose]:
     """Poses of the true points ``truth`` ``(n, 2, 5, 3)`` with the right foot hidden over ``hidden``: its leg held at
     the last frame seen, its calf and foot's visibility 0, as the tracker holds a leg it does not see."""
     poses, held = [], truth.copy()
@@ -768,7 +768,7 @@ def _right_foot_held(truth: np.ndarray, hidden: range, dt: float) -> list[LegPos
     return poses
 
 
-def _rolling_foot(n: int, hidden: range, *, floor_v: float = 0.6, dt: float = 1 / 30,
+def _rolling_foot(n: int, hidden: range | set[int], *, floor_v: float = 0.6, dt: float = 1 / 30,
                   swing_from: int | None = None) -> tuple[list[LegPose], np.ndarray]:
     """``n`` poses in a floor-aligned frame (z up, floor z = 0) of a walker moving along -x: the floor, and a planted
     foot with it, moves along +x at ``floor_v``.  The left foot stands flat throughout; the right one stands flat,
@@ -841,6 +841,31 @@ def test_a_hidden_foot_standing_under_a_trouser_hem_is_rolled_though_its_toe_rea
             assert err.max() < 1e-3  # as on the floor: the toe with the floor, the heel up as its knee lets it
         else:
             assert [p.points.tolist() for p in out] == [p.points.tolist() for p in plain]
+
+
+def test_a_hidden_planted_foot_seen_again_only_briefly_is_rolled_offline_and_live() -> None:
+    """A trailing foot under a hem or behind the other leg may show for a frame or a few and hide again: the
+    stretch before is rolled over its planted toe all the same (the far end's tangent over the frames seen, none
+    for one), offline and live alike; one last seen swinging and seen as briefly is left as tracked."""
+    gap = slice(8, 18)
+    floor = FloorPlane.from_camera_pose(height=0.5, pitch=np.radians(30.0))
+    _, truth = _rolling_foot(32, range(0))
+    for seen_after, bound in ((3, 1e-3), (1, 0.04)):  # one frame: no tangent, the toe off a little early
+        poses = _right_foot_held(truth, set(range(8, 18)) | set(range(18 + seen_after, 26)), 1 / 30)
+        out = bridge_hidden_legs(poses, hide_below=0.25, floor_frame=True)
+        err = np.linalg.norm(np.array([p.points[1, 2:] for p in out[gap]]) - truth[gap, 1, 2:], axis=-1)
+        held = np.linalg.norm(np.array([p.points[1, 2:] for p in poses[gap]]) - truth[gap, 1, 2:], axis=-1)
+        assert held.max() > 0.1 and err.max() < bound, (seen_after, err.max())
+        assert all(o is p for i, (o, p) in enumerate(zip(out, poses)) if not 8 <= i < 18)  # the next stretch: held
+        live, _ = _live(LiveBridge(hide_below=0.25), _to_camera(poses, floor), [floor] * len(poses))
+        walker = np.array([floor.to_walker(p.points) for p in live])
+        assert np.abs(walker - np.array([p.points for p in out])).max() < 1e-9
+    # last seen swinging, seen again for a frame: as tracked, offline and live
+    poses, _ = _rolling_foot(32, set(range(14, 20)) | set(range(21, 26)), swing_from=12)
+    out = bridge_hidden_legs(poses, hide_below=0.25, floor_frame=True)
+    assert all(o is p for o, p in zip(out, poses))
+    live, _ = _live(LiveBridge(hide_below=0.25), _to_camera(poses, floor), [floor] * len(poses))
+    assert np.abs(np.array([floor.to_walker(p.points) for p in live]) - np.array([p.points for p in poses])).max() < 1e-9
 
 
 def test_a_hidden_foot_that_swings_or_has_no_floor_seen_is_bridged_by_the_curves_alone() -> None:

@@ -567,7 +567,10 @@ def bridge_hidden_legs(poses: Sequence[LegPose], *, hide_below: float, max_gap_s
     the last frame before to the first frame after it, each end's velocity the mean over ``fit_frames`` frames
     outside the stretch: the spline gap fill of marker-based motion capture, with both ends' velocities.  A
     stretch is bridged only when it lasts at most ``max_gap_s`` and the frames ``fit_frames`` either side of it
-    have the foot seen and finite points (one track, no restart in between).  The leg's segments move with its
+    have the foot seen and finite points (one track, no restart in between); or, with ``floor_frame``, when the foot
+    stood on the floor when last seen (below) and is seen again for fewer frames before it is out of sight again (a
+    trailing foot under a hem shows at its toe-off for a frame or three), the far end's tangent then over the frames
+    seen (none for one).  The leg's segments move with its
     points (the thigh's and the calf's ends to the knee and ankle, the foot's by the heel's and the toe's
     displacement); joint angles, radii, visibility, status and confidence stay the tracker's.  ``poses`` is not
     modified.
@@ -604,20 +607,28 @@ def bridge_hidden_legs(poses: Sequence[LegPose], *, hide_below: float, max_gap_s
             while t < n and hidden[t, leg]:
                 t += 1
             lo, hi = a - 1, t  # the last frame seen before the stretch, the first one after it
-            if lo - k < 0 or hi + k >= n or not (seen[lo - k:lo + 1].all() and seen[hi:hi + k + 1].all()):
+            if lo - k < 0 or hi >= n or not (seen[lo - k:lo + 1].all() and seen[hi]):
+                continue
+            ka = 0  # frames seen after ``hi`` for its tangent: ``k``, fewer where the foot is out of sight again
+            while ka < k and hi + ka + 1 < n and seen[hi + ka + 1]:
+                ka += 1
+            brief = ka < k  # seen again only briefly: bridged only as planted, once out of sight again
+            if brief and (floor is None or hi + ka + 1 >= n):
                 continue
             span = stamps[hi] - stamps[lo]
-            dt0, dt1 = stamps[lo] - stamps[lo - k], stamps[hi + k] - stamps[hi]
-            if not (0.0 < span <= max_gap_s and dt0 > 0.0 and dt1 > 0.0):
+            dt0, dt1 = stamps[lo] - stamps[lo - k], stamps[hi + ka] - stamps[hi]
+            if not (0.0 < span <= max_gap_s and dt0 > 0.0 and (dt1 > 0.0 or ka == 0)):
                 continue
             p0, p1 = poses[lo].points[leg, idx], poses[hi].points[leg, idx]
             m0 = span * (p0 - poses[lo - k].points[leg, idx]) / dt0  # end tangents, scaled to the stretch
-            m1 = span * (poses[hi + k].points[leg, idx] - p1) / dt1
+            m1 = span * (poses[hi + ka].points[leg, idx] - p1) / dt1 if ka else np.zeros_like(p1)
             curve = np.stack([_hermite((stamps[i] - stamps[lo]) / span, p0, m0, p1, m1) for i in range(a, hi)])
             if floor is not None:
                 near = floor.velocity(float(stamps[lo]), float(stamps[hi]))
                 planted = _planted_bridge(curve, poses[lo].points[leg], poses[hi].points[leg], stamps[lo:hi + 1],
                                           v0=m0[-1] / span, v1=m1[-1] / span, floor=floor, near=near)
+                if brief and planted is curve:
+                    continue
                 curve = planted if planted is not curve else _landing_bridge(
                     curve, poses[lo].points[leg], poses[hi].points[leg], stamps[lo:hi + 1], v0=m0 / span,
                     v1=m1 / span, floor=floor, near=near)
@@ -892,11 +903,11 @@ class LiveBridge:
     A frame in which neither foot is hidden (:func:`_feet_hidden`, ``hide_below`` as the tracker's) comes out at once
     when nothing before it is held.  From the first frame in which a foot is hidden the frames are held until that
     stretch is decided: it is bridged once the foot has been seen again for ``fit_frames`` + 1 frames (about 0.17 s at
-    30 Hz) within ``max_gap_s`` of its last frame seen before it, with :func:`bridge_hidden_legs` (``floor_frame``: in
+    30 Hz), or for fewer and then out of sight again, within ``max_gap_s`` of its last frame seen before it, with :func:`bridge_hidden_legs` (``floor_frame``: in
     each frame's walker frame, a planted foot rolled over its toe) over the frames kept, those since
     :data:`LIVE_BRIDGE_HISTORY_S` before; it is left as tracked where the offline bridge leaves it (a stretch longer
     than ``max_gap_s``, ends not seen for ``fit_frames`` frames either side, a frame without points or floor in
-    them).  So a stretch's poses come out at most ``max_gap_s`` + ``fit_frames`` frames after their time, as
+    them, a foot seen again only briefly that did not stand when last seen).  So a stretch's poses come out at most ``max_gap_s`` + ``fit_frames`` frames after their time, as
     bridged as offline, the floor's velocity and the fastest toe taken over the frames kept rather than the whole
     recording.  ``push`` returns what it releases; ``flush`` the frames still held, as tracked (the recording
     ended: no frame will decide them).  Pure bookkeeping around :func:`bridge_hidden_legs`; no ROS."""
@@ -980,8 +991,9 @@ class LiveBridge:
                 idx = np.array(BRIDGE_POINTS)
                 for m in range(a, hi):
                     h = self._frames[m]
-                    h.final = _with_leg_points(h.final if h.final is not None else h.walker, leg,
-                                               bridged[m].points[leg, idx])
+                    if not np.array_equal(bridged[m].points[leg, idx], h.walker.points[leg, idx]):  # else as tracked
+                        h.final = _with_leg_points(h.final if h.final is not None else h.walker, leg,
+                                                   bridged[m].points[leg, idx])
                     h.decided[leg] = True
             out.append(self._emit(f))
             self._next += 1
@@ -1003,11 +1015,13 @@ class LiveBridge:
             hi += 1
         if hi == len(fr):  # hidden to the newest frame
             return False if float(fr[-1].pose.stamp) - t_lo > self.max_gap_s else None
-        if not float(fr[hi].pose.stamp) - t_lo <= self.max_gap_s:
+        if not (float(fr[hi].pose.stamp) - t_lo <= self.max_gap_s and fr[hi].seen[leg]):
             return False
-        if not all(fr[j].seen[leg] for j in range(hi, min(hi + k, len(fr) - 1) + 1)):
-            return False
-        return None if hi + k >= len(fr) else (a, hi)
+        run = 1  # frames seen from ``hi`` on
+        while run <= k and hi + run < len(fr) and fr[hi + run].seen[leg]:
+            run += 1
+        # seen for ``k`` + 1 frames, or fewer and out of sight again (bridged if the foot stood: the offline rule)
+        return None if hi + run == len(fr) and run <= k else (a, hi)
 
     def _trim(self) -> None:
         """Drop released frames older than ``history_s`` before the first frame held (or the newest one).  The first
