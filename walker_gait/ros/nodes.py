@@ -456,7 +456,7 @@ class LegTrackerNode(WalkerNode):
             pose = self.pelvis.place(pose, floor)
         self.pub_joints(M.make_joint_state(pose, header))
         self.pub_track(M.make_leg_track(pose, header, particle_count=int(getattr(self.config, "n_particles", 0))))
-        self.pub_markers(M.make_markers(pose, header))
+        self._publish_markers(pose, header)
         if self.bridge is not None:
             self._publish_bridged(self.bridge.push(pose, floor, header))
         self._last_frame_wall = time.monotonic()
@@ -479,6 +479,14 @@ class LegTrackerNode(WalkerNode):
             out["passing_checks"] = self.tracker.passings
             out["passing_checks_kept"] = self.tracker.passings_kept
         return out
+
+    def _publish_markers(self, pose: Any, header: Any) -> None:
+        """``leg_markers``, the cylinders for RViz / Foxglove: built only while something subscribes (about 2 ms a
+        frame on a 2-core host, a twentieth of the tracker node's time at 30 Hz)."""
+        publisher = getattr(self.pub_markers, "publisher", None)
+        if publisher is not None and publisher.get_subscription_count() == 0:
+            return
+        self.pub_markers(M.make_markers(pose, header))
 
     def _publish_bridged(self, released: list[tuple[Any, Any]]) -> None:
         assert self.pub_bridged is not None
