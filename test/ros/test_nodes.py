@@ -827,7 +827,7 @@ def test_leg_tracker_publishes_hidden_feet_bridged_on_a_track_of_its_own(rclpy_c
 
 def test_leg_markers_are_built_only_while_something_subscribes(rclpy_context: None, monkeypatch: Any) -> None:
     """``leg_markers`` costs the tracker node a few ms a frame: without a subscriber no MarkerArray is built; with
-    one, each frame's is built and published."""
+    one, each frame's is built and handed to the publisher."""
     from walker_gait.ros.base import rclpy_type
     from walker_gait.ros.nodes import LegTrackerNode
 
@@ -835,7 +835,6 @@ def test_leg_markers_are_built_only_while_something_subscribes(rclpy_context: No
     built: list[Any] = []
     make = M.make_markers
     monkeypatch.setattr(M, "make_markers", lambda *a, **kw: built.append(1) or make(*a, **kw))
-    got: list[Any] = []
     try:
         pts = np.zeros((2, 5, 3))
         pts[..., 1] = [[0.1], [-0.1]]
@@ -843,7 +842,7 @@ def test_leg_markers_are_built_only_while_something_subscribes(rclpy_context: No
         pose = LegPose(stamp=1.0, points=pts, visibility=np.ones((2, 3)), status=TrackStatus.TRACKING, confidence=0.9)
         node._publish_markers(pose, M.make_header(1.0, "cam"))
         assert built == []
-        node.create_subscription(rclpy_type(M.MARKER_ARRAY), "leg_markers", got.append, 10)
+        node.create_subscription(rclpy_type(M.MARKER_ARRAY), "leg_markers", lambda m: None, 10)
         node._publish_markers(pose, M.make_header(1.0, "cam"))
         assert built == [1]
     finally:
