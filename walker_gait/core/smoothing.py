@@ -578,7 +578,8 @@ def bridge_hidden_legs(poses: Sequence[LegPose], *, hide_below: float, max_gap_s
     With ``floor_frame`` (the poses in a floor-aligned frame: z up, the floor at z = 0) a foot that stood on the
     floor when last seen (:data:`BRIDGE_PLANTED_Z`, :data:`BRIDGE_PLANTED_SPEED`) is bridged as a walking foot moves
     (:func:`_planted_bridge`): the trailing foot hidden behind the leading leg from its heel-off on keeps its toe on
-    the floor and rolls over it, where two flat ends' curves held it flat and let its toe slide forward.
+    the floor where the frames before put it (:func:`_anchored_toe`) and rolls over it, where two flat ends' curves
+    held it flat and let its toe slide forward.
 
     A foot last seen swinging and seen again standing on the floor (a user close to the camera landing it below
     the image, the floor carrying it back into view) lands on the track the floor carried it along
@@ -720,7 +721,7 @@ def _anchored_toe(before: FloatArray, toes: FloatArray, stamps: FloatArray, near
     what is left of the shoe's front lags (the toe of the hidden heel-up feet of sweep set B stood 3-4.5 cm off, and
     the stretch's heel error followed it); the frames before, where the foot stood in full view, agree on where the
     floor holds it (eightieth session: sets C / A / B / D heels 3.190 / 3.512 / 3.039 / 3.225 -> 3.132 / 3.460 /
-    2.958 / 3.161 cm, toes 2.272 / 2.711 / 2.262 / 2.270 -> 2.161 / 2.589 / 2.139 / 2.170, ankles 0.005-0.009 worse)."""
+    2.958 / 3.161 cm, toes 2.272 / 2.711 / 2.262 / 2.270 -> 2.161 / 2.589 / 2.139 / 2.170, ankles 0.006-0.012 worse)."""
     if near is None or not before[TOE, 2] <= BRIDGE_PLANTED_Z:
         return before
     toes = np.asarray(toes, dtype=np.float64)
