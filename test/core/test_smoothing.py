@@ -844,14 +844,14 @@ def test_a_hidden_foot_standing_under_a_trouser_hem_is_rolled_though_its_toe_rea
 
 
 def test_a_hidden_planted_foot_is_rolled_from_where_the_frames_before_put_its_toe_offline_and_live() -> None:
-    """A foot going out of view is measured worst in its last frame seen (what is left of the shoe's front lags):
-    the roll starts from the median of the toes seen standing over the frames before, each carried by the floor,
-    not from that last toe alone; offline and live alike."""
+    """A foot going out of view is measured worst in its last frame seen (what is left of the shoe's front lags, and
+    the heel behind it): the roll starts from the median of the toes seen standing over the frames before, each
+    carried by the floor, the heel moved with the toe, not from that last shoe; offline and live alike."""
     gap = slice(8, 18)
     floor = FloorPlane.from_camera_pose(height=0.5, pitch=np.radians(30.0))
     poses, truth = _rolling_foot(32, range(8, 18))
     lagging = poses[7].points.copy()
-    lagging[1, 4] += [-0.03, 0.01, 0.01]  # the last toe seen 3 cm off, as the shoe's front leaves the view
+    lagging[1, 3:] += [-0.03, 0.01, 0.01]  # the last shoe seen 3 cm off (toe, and the heel behind it); the ankle not
     poses = [*poses[:7], replace(poses[7], points=lagging),
              *[replace(p, points=np.where(np.arange(2)[:, None, None] == 1, lagging, p.points)) for p in poses[8:18]],
              *poses[18:]]  # the held leg holds the lagging frame
@@ -859,6 +859,7 @@ def test_a_hidden_planted_foot_is_rolled_from_where_the_frames_before_put_its_to
     err = np.linalg.norm(np.array([p.points[1, 2:] for p in out[gap]]) - truth[gap, 1, 2:], axis=-1)
     assert np.linalg.norm(poses[7].points[1, 4] - truth[7, 1, 4]) > 0.03
     assert err.max() < 1e-3, err.max()  # the toe with the floor from where it stood, the heel up as the knee lets it
+    assert np.linalg.norm(poses[7].points[1, 3] - truth[7, 1, 3]) > 0.03
     live, _ = _live(LiveBridge(hide_below=0.25), _to_camera(poses, floor), [floor] * len(poses))
     walker = np.array([floor.to_walker(p.points) for p in live])
     assert np.abs(walker - np.array([p.points for p in out])).max() < 1e-9
