@@ -857,9 +857,8 @@ def test_a_hidden_planted_foot_is_rolled_from_where_the_frames_before_put_its_to
              *poses[18:]]  # the held leg holds the lagging frame
     out = bridge_hidden_legs(poses, hide_below=0.25, floor_frame=True)
     err = np.linalg.norm(np.array([p.points[1, 2:] for p in out[gap]]) - truth[gap, 1, 2:], axis=-1)
-    assert np.linalg.norm(poses[7].points[1, 4] - truth[7, 1, 4]) > 0.03
+    assert np.linalg.norm(poses[7].points[1, 3:] - truth[7, 1, 3:], axis=-1).min() > 0.03  # the last heel and toe
     assert err.max() < 1e-3, err.max()  # the toe with the floor from where it stood, the heel up as the knee lets it
-    assert np.linalg.norm(poses[7].points[1, 3] - truth[7, 1, 3]) > 0.03
     live, _ = _live(LiveBridge(hide_below=0.25), _to_camera(poses, floor), [floor] * len(poses))
     walker = np.array([floor.to_walker(p.points) for p in live])
     assert np.abs(walker - np.array([p.points for p in out])).max() < 1e-9
