@@ -797,3 +797,22 @@ def test_live_flat_feet_follow_the_heading_their_shoe_shows() -> None:
     given, out, _ = _live(swaying)
     assert all(o.heel_tracked is None and np.array_equal(o.points[:, HEEL], g.points[:, HEEL])
                for g, o in zip(given, out))
+
+
+def test_live_a_hem_is_recognised_on_the_last_frames_calves() -> None:
+    """A new track's calves start at the model's mean radius and widen to a tube of loose fabric only after a while:
+    live, the hem is judged on the calves of the last :data:`LIVE_HEM_FRAMES` frames, so the heels under it are
+    placed at the typical shoe's length as soon as most of those frames are loose, not once the loose frames
+    outnumber the tight ones over the whole track so far (at frame 50 here, where a whole-track median would first
+    see the hem)."""
+    lo, hi = lm.LOOSE_CALF_RADIUS
+    stand = _stand_then_heel_up(tracked_pitch_deg=20.0)
+    tight = _shod(stand[:25], longer=-0.05, calf_radius=0.06)  # no shoe shown cleanly, no hem yet
+    loose = _shod(stand[25:], longer=-0.05, calf_radius=0.115)
+    _, out, after = _live(tight + loose)
+    placed = np.array([o.heel_tracked is not None for o in out])
+    assert not placed[:25].any()
+    first = 25 + pv.LIVE_HEM_FRAMES // 2  # the first frame with most of the last LIVE_HEM_FRAMES frames loose
+    assert pv.LIVE_HEM_FRAMES <= 20 and 0.06 < lo < 0.115 < hi + 0.01
+    assert not placed[first - 1] and placed[first:].all()
+    np.testing.assert_allclose(_lengths(after[first:])[1], pv.HEMMED_SHOE_M, atol=1e-6)
