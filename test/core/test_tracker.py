@@ -1560,3 +1560,58 @@ def test_root_compensation_keeps_the_velocity_of_the_legs() -> None:
     a = lm.L.ANGLES
     assert (np.abs(new[:, a] - x[:, a]).max(axis=1) > 1e-4).all()  # the legs took the pelvis's moves ...
     np.testing.assert_allclose(new[:, a] - tr._x_prev[:, a], 0.01, atol=1e-9)  # ... and kept their velocity
+
+
+def _shins(rng: np.random.Generator, *, radius: float, centres: tuple[float, float], n: int = 400) -> np.ndarray:
+    """Shin-band points (body frame) of two lower legs seen from the front: laterally even over each leg's width at
+    the band (the proximal ``radius`` narrowed as ``_shin_radius`` models the calf), 0.25-0.6 m up."""
+    from walker_gait.core.tracker import SHIN_BAND_SHARE
+
+    taper = float(lm.calf_taper(np.array(radius)))
+    half = radius * (1.0 - (1.0 - SHIN_BAND_SHARE) * (1.0 - taper))
+    pts = []
+    for c in centres:
+        y = rng.uniform(c - half, c + half, n)
+        pts.append(np.stack([rng.normal(0.3, 0.01, n), y, rng.uniform(0.26, 0.6, n)], axis=1))
+    return np.concatenate(pts)
+
+
+@pytest.mark.parametrize("radius", [0.05, 0.07, 0.11])
+def test_the_shin_radius_is_measured_across_the_leg_blobs(radius: float) -> None:
+    """A search from scratch starts from the calves the shins show (``detect_calf_radius``): fitted calves and a tube
+    of baggy trousers (two tubes touching) alike; legs one in front of the other or too few points tell nothing."""
+    from walker_gait.core.tracker import SHIN_MIN_POINTS, _shin_radius
+
+    rng = np.random.default_rng(5)
+    centres = (-0.11, 0.11) if radius > 0.1 else (-0.09, 0.09)
+    sel = _shins(rng, radius=radius, centres=centres)
+    left = sel[:, 1] > 0.0
+    got = _shin_radius(sel, left, centres[1] - centres[0])
+    assert got is not None and abs(got - radius) < 0.004
+    crossed = _shins(rng, radius=radius, centres=(-0.02, 0.02))
+    assert _shin_radius(crossed, crossed[:, 1] > 0.0, 0.04) is None
+    few = sel[np.r_[0:SHIN_MIN_POINTS - 1, 400:800]]
+    assert _shin_radius(few, few[:, 1] > 0.0, centres[1] - centres[0]) is None
+
+
+def test_a_search_from_scratch_starts_from_the_calves_the_shins_show() -> None:
+    """Legs in a tube of baggy trousers (the model's calf radius 11 cm): with ``detect_calf_radius`` (the default
+    preset's) the detection's calves are the tube's, where the typical adult's 5.5 cm took the track a second of
+    frames to widen to it; the seed's configuration keeps the typical calves, and so do calves narrower than
+    ``SHIN_FABRIC_RADIUS`` (fitted trousers)."""
+    from walker_gait.bench.tracker import render_frame
+    from walker_gait.core.tracker import SHIN_FABRIC_RADIUS
+
+    floor = FloorPlane.from_camera_pose(height=0.70, pitch=0.50)
+    typical = float(lm.MEAN_SHAPE[4])
+    assert DEFAULT.detect_calf_radius and not PAPER.detect_calf_radius and typical < 0.065 < SHIN_FABRIC_RADIUS
+    off = dataclasses.replace(DEFAULT, detect_calf_radius=False)
+    for calf, cfg, want, tol in ((0.11, DEFAULT, 0.11, 0.015), (0.11, off, typical, 1e-9),
+                                 (0.065, DEFAULT, typical, 1e-9)):
+        state = lm.neutral_state(right_hip_xy=(-0.85, -0.12), hip_dist=0.24)
+        state[lm.StateLayout.RAD_CALF] = calf
+        fr = render_frame(state, intrinsics=KINECT, floor=floor, mounting="facing_user",
+                          rng=np.random.default_rng(1))
+        tracker = LegTracker(cfg, KINECT, rng=np.random.default_rng(0))
+        detected = tracker._detect(tracker._prepare(fr.points.astype(np.float64), fr.depth, floor))
+        assert abs(detected[lm.StateLayout.RAD_CALF] - want) < tol
