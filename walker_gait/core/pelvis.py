@@ -128,12 +128,13 @@ LIVE_LENGTHS_FRAMES = 1800
 30 Hz): a user's lengths do not change, the bound keeps the cost of a frame bounded."""
 LIVE_HEM_FRAMES = 10
 """The live placement judges a trouser hem (:func:`hemmed`) on the calves of at most this many of the track's last
-frames.  A track's calves start at the model's mean radius and widen to a tube of loose fabric over its first 15-30
-frames; judged over the whole track so far, as :func:`place_poses` judges it offline, the hem was recognised only once
-the loose frames outnumbered the tight ones, some 35 frames in, and the heels of the frames in between stayed the
-tracker's short ones (eighty-first session, 27 forward passes of the bench's scenarios, other seeds and probes: heels
-3.476 -> 3.420 cm on ``leg_track``, 3.198 -> 3.143 on ``leg_track_bridged``, 0.07-0.32 cm better in each of the seven
-sessions under baggy trousers, the same in every other; knees 0.005 and hips 0.008 cm worse)."""
+frames.  A track's calves widen to a tube of loose fabric over its first frames (15-30 from the model's mean radius,
+before a search took the shins' width, ``TrackerConfig.detect_calf_radius``); judged over the whole track so far, as
+:func:`place_poses` judges it offline, the hem was recognised only once the loose frames outnumbered the tight ones,
+some 35 frames in, and the heels of the frames in between stayed the tracker's short ones (eighty-first session, 27
+forward passes of the bench's scenarios, other seeds and probes, tracked before that change: heels 3.476 -> 3.420 cm
+on ``leg_track``, 3.198 -> 3.143 on ``leg_track_bridged``, 0.07-0.32 cm better in each of the eight sessions under
+trouser hems, the same in every other; knees 0.005 and hips 0.008 cm worse)."""
 
 SHOE_FLAT_HEIGHT_M = 0.02
 """A reported foot whose heel and toe are both lower than this (m above the floor) stands flat: its frames calibrate
