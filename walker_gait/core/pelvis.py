@@ -702,14 +702,16 @@ class LivePelvis:
         self.window_s = float(window_s)
         self._history: deque[tuple[float, FloatArray]] = deque()
         self._lengths = np.zeros((LIVE_LENGTHS_FRAMES, 2, 3))  # a ring of the frames' (thigh, calf, foot) per leg
-        self._calves = np.zeros((LIVE_LENGTHS_FRAMES, 2))  # and of their calves' proximal radii (NaN: none given)
         self._n_lengths = 0  # frames in it, this track
+        # the calves' proximal radii of the track's last frames (NaN: none given), what a hem is judged on
+        self._calves: deque[FloatArray] = deque(maxlen=LIVE_HEM_FRAMES)
         self._shoes = (_live_shoe(), _live_shoe())
         self._last: tuple[LegPose, LegPose] | None = None  # the last pose placed, as given and as placed
 
     def reset(self) -> None:
         self._history.clear()
         self._n_lengths = 0
+        self._calves.clear()
         self._shoes = (_live_shoe(), _live_shoe())
         self._last = None
 
@@ -795,12 +797,11 @@ class LivePelvis:
         body = np.asarray(walker.points, dtype=np.float64) @ self._flip.T
         self._lengths[self._n_lengths % LIVE_LENGTHS_FRAMES] = np.linalg.norm(
             body[:, [HIP, KNEE, TOE]] - body[:, [KNEE, ANKLE, HEEL]], axis=-1)
-        self._calves[self._n_lengths % LIVE_LENGTHS_FRAMES] = calf_radii(pose)
+        self._calves.append(calf_radii(pose))
         self._n_lengths += 1
         n = min(self._n_lengths, LIVE_LENGTHS_FRAMES)
         lengths = np.median(self._lengths[:n].reshape(-1, 3), axis=0)
-        recent = (self._n_lengths - 1 - np.arange(min(n, LIVE_HEM_FRAMES))) % LIVE_LENGTHS_FRAMES
-        hem = hemmed(self._calves[recent])
+        hem = hemmed(np.stack(self._calves))
         lengths[2] = shoe_length(lengths[2], hem=hem)
         pitch, heading, clean = self._shoe_frame(body, _shoe_measure(pose.shoe_rise), _shoe_measure(pose.shoe_turn))
         if hem:  # a shoe under a hem is never shown cleanly, and its length is not the tracker's short one: placed

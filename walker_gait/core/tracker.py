@@ -494,9 +494,12 @@ walking in from the side (``absent_start``) it found more steps, each session as
 PRESETS: dict[str, TrackerConfig] = {"paper": PAPER, "default": DEFAULT, "accurate": ACCURATE}
 
 
+SHIN_BAND_M = (0.25, 0.7)
+"""Heights (m above the floor) of the shin band in which :meth:`LegTracker._leg_blobs` tells the two legs apart (shins
+and knees, above what lies on the floor) and :func:`_shin_radius` measures their width."""
 SHIN_BAND_SHARE = 0.65
-"""Where along the calf, from the ankle, the shin band of :meth:`LegTracker._leg_blobs` (0.25-0.7 m above the floor,
-of which a camera at the walker sees mostly the lower part) measures its width on average: the calf's radius there
+"""Where along the calf, from the ankle, the shin band (:data:`SHIN_BAND_M`, of which a camera at the walker sees
+mostly the lower part) measures its width on average: the calf's radius there
 is its proximal radius narrowed by this share of its taper (:func:`~walker_gait.core.leg_model.calf_taper`)."""
 SHIN_MIN_POINTS = 40
 """Fewest shin-band points of each leg blob for :func:`_shin_radius` to measure its width."""
@@ -1586,14 +1589,15 @@ class LegTracker:
         """The foreground points (body frame) that tell the two legs apart, and the two centres (right, left) of a
         2-means clustering of their lateral positions."""
         pb = frame.fg_all_body
-        # shins and knees (0.25-0.7 m above the floor) separate the two legs best and leave out what
+        # shins and knees (SHIN_BAND_M above the floor) separate the two legs best and leave out what
         # lies low on the floor: feet together, a walker's wheels, a bag; feet-only views fall back.  A camera
         # at the walker sees mostly feet: the shin band held 3-4 % of the foreground of a user standing at the
         # start of the synthetic sessions (asymmetric:940), and a 10 % threshold fell back to the band that
         # holds the rear wheel, which then took a model leg for 2 s
-        sel = pb[(pb[:, 2] > 0.25) & (pb[:, 2] < 0.7)]
+        lo, hi = SHIN_BAND_M
+        sel = pb[(pb[:, 2] > lo) & (pb[:, 2] < hi)]
         if sel.shape[0] < max(50, pb.shape[0] // 50):
-            sel = pb[(pb[:, 2] > 0.03) & (pb[:, 2] < 0.7)]
+            sel = pb[(pb[:, 2] > 0.03) & (pb[:, 2] < hi)]
         if sel.shape[0] < 10:
             sel = pb
         y = sel[:, 1]
@@ -1627,7 +1631,7 @@ class LegTracker:
             state[L.leg(side).start + L.HIP_FLEX] = float(np.clip(flex, -0.5, 0.8))
         state[L.HIP_DIST] = sep
         _ = y_left
-        if self.config.detect_calf_radius and bool(np.all(sel[:, 2] > 0.25)):  # the shin band itself, no fallback
+        if self.config.detect_calf_radius and bool(np.all(sel[:, 2] > SHIN_BAND_M[0])):  # the band itself, no fallback
             radius = _shin_radius(sel, lab, float(c[1] - c[0]))
             if radius is not None and radius >= SHIN_FABRIC_RADIUS:
                 state[L.RAD_CALF] = radius
