@@ -53,6 +53,15 @@ def test_passes_choose_one_or_two_tracking_passes(real_bag: Path, tmp_path: Path
     assert meta_one["passes"] == "forward" and meta_two["passes"] == "both"
     assert meta_one["leg_length_m"] == 0.9 and meta_two["leg_length_m"] is None
     assert "tracked forwards (one pass)" in one.stdout and "tracked forwards and backwards" in two.stdout
+    assert meta_one["tracker_runs"] is None and meta_two["tracker_runs"] == 2
+    # each direction tracked once or more; a number of runs for the one pass, or out of range, is refused
+    once = walker_gait("process", str(real_bag), "--out", str(tmp_path / "once"), "--tracker-runs", "1")
+    assert once.returncode == 0, once.stderr
+    assert json.loads((tmp_path / "once" / "summary.json").read_text())["metadata"]["tracker_runs"] == 1
+    for args in (("--passes", "forward", "--tracker-runs", "2"), ("--tracker-runs", "0"), ("--tracker-runs", "9")):
+        bad = walker_gait("process", str(real_bag), "--out", str(tmp_path / "bad"), *args)
+        assert bad.returncode == 2 and "tracker-runs" in bad.stderr.replace("_", "-"), bad.stderr
+        assert "Traceback" not in bad.stderr
     bad = walker_gait("process", str(real_bag), "--out", str(tmp_path / "bad"), "--passes", "backward")
     assert bad.returncode == 2 and "--passes" in bad.stderr
     # the reported poses' bridge and low-pass take a number >= 0; anything else is refused, naming it

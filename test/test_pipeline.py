@@ -59,18 +59,23 @@ def test_worker_backward_pass_is_scored_here_as_inline(short_session: Path) -> N
         for _, prepared in front.frames():
             assert proc.track(prepared) is None  # the forward pass; its results come at the end
             frames.append(prepared)
-        worker = front.backward()
-    inline = FrameProcessor(_options(0)).backward(frames)
-    assert worker is not None and len(worker.poses) == len(frames) == 75
-    assert np.isfinite(worker.scores).sum() >= 60  # scored, not left NaN or -inf
-    np.testing.assert_array_equal(worker.scores, inline.scores)
-    np.testing.assert_array_equal([p.points for p in worker.poses], [p.points for p in inline.poses])
-    for name in ("shoe_rise", "shoe_turn"):
-        got = [np.full(2, -1.0) if getattr(p, name) is None else getattr(p, name) for p in worker.poses]
-        want = [np.full(2, -1.0) if getattr(p, name) is None else getattr(p, name) for p in inline.poses]
-        np.testing.assert_array_equal(got, want)
-        assert np.isfinite(got).sum() >= 60
-    assert (worker.scoring_ms > 0).all()
+        passes = front.backward()
+    assert passes is not None and len(passes) == proc.options.tracker_runs == 2  # one per run
+    for run, worker in enumerate(passes):
+        inline = FrameProcessor(_options(0)).backward(frames, run=run)
+        assert len(worker.poses) == len(frames) == 75
+        assert np.isfinite(worker.scores).sum() >= 60  # scored, not left NaN or -inf
+        np.testing.assert_array_equal(worker.scores, inline.scores)
+        np.testing.assert_array_equal([p.points for p in worker.poses], [p.points for p in inline.poses])
+        for name in ("shoe_rise", "shoe_turn"):
+            got = [np.full(2, -1.0) if getattr(p, name) is None else getattr(p, name) for p in worker.poses]
+            want = [np.full(2, -1.0) if getattr(p, name) is None else getattr(p, name) for p in inline.poses]
+            np.testing.assert_array_equal(got, want)
+            assert np.isfinite(got).sum() >= 60
+        assert (worker.scoring_ms > 0).all()
+    # the runs are independent trackings (each on a random stream of its own), not one tracking twice
+    both = np.array([[p.points for p in w.poses] for w in passes])
+    assert np.nanmax(np.abs(both[0] - both[1])) > 1e-3
 
 
 def test_prepared_frame_pickles_with_sparse_depth() -> None:
@@ -290,16 +295,16 @@ def test_frame_store_reads_frames_back_bit_for_bit(short_session: Path, tmp_path
     view.close()
 
 
-def _forward_pass_and_frames(path: Path) -> tuple[Any, Any, list[Any]]:
-    """A two-pass ``FrameProcessor`` fed every frame of the recording ``path`` (its forward pass: ``process`` returns
-    nothing until ``finish``), a second one that prepares the same frames again for a backward pass of its own, and
-    those prepared frames."""
+def _forward_pass_and_frames(path: Path, *, tracker_runs: int = 1) -> tuple[Any, Any, list[Any]]:
+    """A two-pass ``FrameProcessor`` (each direction tracked ``tracker_runs`` times) fed every frame of the recording
+    ``path`` (its forward passes: ``process`` returns nothing until ``finish``), a second one that prepares the same
+    frames again for backward passes of its own, and those prepared frames."""
     from types import SimpleNamespace
 
     from walker_gait.io.bags import open_recording
     from walker_gait.pipeline import FrameProcessor
 
-    proc, prep = FrameProcessor(_options(0, passes="both")), FrameProcessor(_options(0, passes="both"))
+    proc, prep = (FrameProcessor(_options(0, passes="both", tracker_runs=tracker_runs)) for _ in range(2))
     frames = []
     for fr in open_recording(path).iter_frames():
         info = SimpleNamespace(**{k: getattr(fr.camera_info, k) for k in
@@ -356,8 +361,8 @@ def test_two_passes_merge_the_forward_pass_with_a_backward_one(short_session: Pa
     # the one-pass run reports the tracker's poses as tracked (no pelvis placed), to compare with the kept passes
     one = process_recording(short_session, tmp_path / "one", options=_options(0, passes="forward", write_mcap=True,
                                                                              report_pelvis_window_s=0.0), progress=False)
-    two = process_recording(short_session, tmp_path / "two", options=_options(0, passes="both", write_mcap=True),
-                            progress=False)
+    two = process_recording(short_session, tmp_path / "two", options=_options(0, passes="both", write_mcap=True,
+                                                                             tracker_runs=1), progress=False)
     assert len(two.poses) == len(one.poses) == 75
     assert [p.stamp for p in two.poses] == [p.stamp for p in one.poses]
     meta_one = json.loads((tmp_path / "one" / "summary.json").read_text())["metadata"]
@@ -461,6 +466,51 @@ def test_two_passes_merge_the_forward_pass_with_a_backward_one(short_session: Pa
     assert 0.3 < lengths["thigh"] < 0.55 and 0.2 < lengths["foot"] < 0.33
     assert lengths["foot_under_hem"] is False  # the sample's trousers fit
     assert two.summary["mean_confidence"] == pytest.approx(np.mean([s.confidence for s in two.steps]))
+
+
+def test_each_direction_tracked_more_than_once_merges_every_run(short_session: Path, tmp_path: Path) -> None:
+    """``tracker_runs=2`` (the default): forwards and backwards each tracked twice, each run on a random stream of its
+    own; the first run's passes are the one-run pipeline's, the second run's differ from them, and every frame's
+    pose is the merge of all four passes (forward, backward, forward, backward) as reported."""
+    import json
+
+    from walker_gait.core.smoothing import merge_passes, reported_poses, wait_for_both_feet
+
+    assert PipelineOptions().tracker_runs == 2
+    proc, prep, frames = _forward_pass_and_frames(short_session, tracker_runs=2)
+    fin = proc.finish()
+    assert len(fin.passes) == 4 and all(len(p.poses) == 75 for p in fin.passes)
+    one_run, _, _ = _forward_pass_and_frames(short_session, tracker_runs=1)
+    single = one_run.finish()
+    for k in (0, 1):  # run 0: the one-run pipeline's forward and backward passes
+        np.testing.assert_array_equal([p.points for p in fin.passes[k].poses], [p.points for p in single.passes[k].poses])
+    for k in (2, 3):  # run 1: another tracking of the same frames, each way
+        assert np.nanmax(np.abs(np.array([p.points for p in fin.passes[k].poses])
+                                - np.array([p.points for p in fin.passes[k - 2].poses]))) > 1e-3
+    backward = wait_for_both_feet(prep.backward(frames, run=1), other=fin.passes[2])
+    np.testing.assert_array_equal([p.points for p in fin.passes[3].poses], [p.points for p in backward.poses])
+    merged = merge_passes(list(fin.passes))
+    shown = reported_poses(merged.poses, hide_below=proc.options.tracker.hide_below,
+                           max_gap_s=proc.options.bridge_hidden_s, lowpass_hz=proc.options.report_lowpass_hz,
+                           floors=[r.floor for r in fin.results], pelvis_window_s=proc.options.report_pelvis_window_s,
+                           mounting=proc.options.mounting)
+    np.testing.assert_array_equal([r.pose.points for r in fin.results], [p.points for p in shown])
+    assert fin.backward_share == pytest.approx(merged.share(1) + merged.share(3))
+    # the further forward run's work is timed apart from the live tracker's (the tracker stage is run 0 alone)
+    assert all(r.timings_ms["tracker_more_runs"] > 0 for r in fin.results)
+    res = process_recording(short_session, tmp_path / "out", options=_options(0), progress=False)
+    meta = json.loads((tmp_path / "out" / "summary.json").read_text())["metadata"]
+    assert meta["tracker_runs"] == res.tracker_runs == 2 and "2 times each way" in res.describe()
+    np.testing.assert_array_equal([p.points for p in res.poses], [r.pose.points for r in fin.results])
+
+
+def test_tracker_runs_must_be_a_small_whole_number() -> None:
+    from walker_gait.config import ParameterError
+
+    for bad in (0, -1, 9, 1.5, True, "2"):
+        with pytest.raises(ParameterError, match="tracker_runs"):
+            PipelineOptions(tracker_runs=bad)
+    assert PipelineOptions(tracker_runs=1).tracker_runs == 1
 
 
 def test_one_pass_reports_the_pelvis_placed_frame_by_frame_as_the_live_node(short_session: Path) -> None:

@@ -225,15 +225,19 @@ STAGES = ("floor_segmentation", "leg_tracker", "leg_tracker_backward", "pass_sco
 """Stages with a random generator of their own; new ones go at the end (an index is part of the seed)."""
 
 
-def stage_rng(seed: int, stage: str) -> Any:
+def stage_rng(seed: int, stage: str, *, run: int = 0) -> Any:
     """The random generator of one pipeline stage for a run seed.
 
     The live nodes (one process per stage) and the offline pipeline derive their generators the same
-    way, so both see identical random streams for the same ``seed``.
+    way, so both see identical random streams for the same ``seed``.  ``run`` > 0: the stage's further, independent
+    streams (offline, each direction tracked more than once: ``PipelineOptions.tracker_runs``); run 0 is the stage's
+    own stream, the live one.
     """
     import numpy as np
 
-    return np.random.default_rng([int(seed), STAGES.index(stage)])
+    if run < 0:
+        raise ValueError(f"run must be >= 0, got {run}")
+    return np.random.default_rng([int(seed), STAGES.index(stage), *([int(run)] if run else [])])
 
 
 def frame_rng(seed: int, index: int) -> Any:

@@ -42,6 +42,9 @@ STRUCTURE_STRIDE = 2
 """:meth:`FrameProcessor.learn_structure` decodes and segments every this-many-th frame, its mask learning in
 ``static_mask.frames / STRUCTURE_STRIDE`` moving frames (half the time of a pass over every frame)."""
 
+MAX_TRACKER_RUNS = 8
+"""The most runs per direction ``PipelineOptions.tracker_runs`` takes (each costs one more tracking of the recording)."""
+
 
 @dataclasses.dataclass(kw_only=True)
 class PipelineOptions:
@@ -63,6 +66,8 @@ class PipelineOptions:
     write_report: bool = True
     prefetch: int = 4  # frames decoded + segmented ahead in a forked worker process (0: all in this process)
     passes: str = "both"  # "both": tracked forwards and backwards, merged (core.smoothing); "forward": as the live graph
+    # "both": each direction tracked this many times, each run on a random stream of its own, every run merged
+    tracker_runs: int = 2
     store_memory_mb: int = 256  # "both": prepared frames kept in memory up to this size, beyond it in a temporary file
     # "both": a hidden foot's stretch up to this long bridged in the reported poses (smoothing.bridge_hidden_legs; 0 = off)
     bridge_hidden_s: float = 1.0
@@ -84,6 +89,10 @@ class PipelineOptions:
 
         if self.passes not in PASSES:
             raise ParameterError(f"passes must be one of {', '.join(PASSES)}, got {self.passes!r}")
+        if isinstance(self.tracker_runs, bool) or not isinstance(self.tracker_runs, int) or \
+                not 1 <= self.tracker_runs <= MAX_TRACKER_RUNS:
+            raise ParameterError(f"tracker_runs must be a whole number from 1 to {MAX_TRACKER_RUNS}, got "
+                                 f"{self.tracker_runs!r}")
         for name in ("bridge_hidden_s", "report_lowpass_hz", "report_pelvis_window_s"):
             value = getattr(self, name)
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0):
@@ -303,7 +312,7 @@ class Finished:
     events: list[GaitEvent]
     steps: list[Step]
     backward_share: float = math.nan  # "both": fraction of the frames whose pose came from the backward pass
-    passes: tuple[PassTrack, ...] = ()  # "both": the forward and backward passes that were merged (for re-merging)
+    passes: tuple[PassTrack, ...] = ()  # "both": the passes merged, forward and backward run by run (for re-merging)
     unconfirmed_steps: int | None = None  # "both": steps doubted because the passes alone did not both see them alike
     exchanged_frames: int | None = None  # "both": frames whose pass's legs the merge took exchanged back (merge_passes)
 
@@ -315,9 +324,10 @@ class FrameProcessor:
     :meth:`set_camera_info` + :meth:`prepare` (decode, back-project, segment) and :meth:`track`
     (tracker + gait analyzer); :meth:`process` runs both.
 
-    With ``options.passes == "both"`` :meth:`track` runs the forward tracking pass only and keeps the frame
-    (:class:`FrameStore`); :meth:`finish` then tracks the frames backwards, merges the two passes
-    (:mod:`walker_gait.core.smoothing`) and runs the gait analyzer over the merged poses.
+    With ``options.passes == "both"`` :meth:`track` runs the forward tracking passes only (``options.tracker_runs``
+    of them, each tracker on a random stream of its own) and keeps the frame (:class:`FrameStore`); :meth:`finish`
+    then tracks the frames backwards as many times, merges every pass (:mod:`walker_gait.core.smoothing`) and runs
+    the gait analyzer over the merged poses.
     """
 
     def __init__(self, options: PipelineOptions) -> None:
@@ -345,6 +355,11 @@ class FrameProcessor:
         self._scorer: Any = None
         # "both": per frame the forward pass's pose, its score, stage times, floor and foreground size
         self._fwd: list[tuple[LegPose, float, dict[str, float], FloorPlane, int]] = []
+        # "both": each direction tracked options.tracker_runs times; the further forward runs' trackers (run 1, 2,
+        # ...) and per run, per frame their pose, its score and the tracker's time (ms)
+        self._runs = options.tracker_runs if self._two_way else 1
+        self._more: list[Any] = []
+        self._more_fwd: list[list[tuple[LegPose, float, float]]] = [[] for _ in range(self._runs - 1)]
         # "forward": the reported pelvis placed frame by frame, as the live leg_tracker node does
         self._pelvis: Any = None
         if not self._two_way and options.report_pelvis_window_s > 0:
@@ -454,6 +469,9 @@ class FrameProcessor:
             self.tracker = LegTracker(self.options.tracker, frame.intrinsics,
                                       rng=stage_rng(self.options.seed, "leg_tracker"), mounting=self.options.mounting,
                                       measure_shoes=self._two_way or self._pelvis is not None)
+            self._more = [LegTracker(self.options.tracker, frame.intrinsics,
+                                     rng=stage_rng(self.options.seed, "leg_tracker", run=run),
+                                     mounting=self.options.mounting, measure_shoes=True) for run in range(1, self._runs)]
             self._tracker_intrinsics = frame.intrinsics
             if self._pelvis is not None:
                 self._pelvis.reset()
@@ -465,15 +483,27 @@ class FrameProcessor:
             index = len(self._fwd)
             score = self._score(frame, self.tracker.state, index)
             t4 = time.perf_counter()
+            more_ms = 0.0  # the further forward runs, tracked and scored
+            for tracker, runs in zip(self._more, self._more_fwd, strict=True):
+                t0 = time.perf_counter()
+                more = tracker.update(stamp=frame.stamp, points=frame.points, depth_fg=frame.depth_fg,
+                                      floor=frame.floor, no_depth=frame.no_depth)
+                t1 = time.perf_counter()
+                runs.append((more, self._score(frame, tracker.state, index), (t1 - t0) * 1e3))
+                more_ms += (time.perf_counter() - t0) * 1e3
             if self.keep_frames:
                 if self._store is None:
                     self._store = FrameStore(memory_mb=self.options.store_memory_mb)
                 self._store.append(frame)
             assert self._fwd_alone is not None
-            self._fwd_alone.update(pose, frame.floor)  # its events and steps are read back at the end
             t5 = time.perf_counter()
-            self._fwd.append((pose, score, dict(frame.timings_ms, tracker=(t3 - t2) * 1e3, pass_scoring=(t4 - t3) * 1e3,
-                                                gait=(t5 - t4) * 1e3), frame.floor, len(frame.points)))
+            self._fwd_alone.update(pose, frame.floor)  # its events and steps are read back at the end
+            t6 = time.perf_counter()
+            timings = dict(frame.timings_ms, tracker=(t3 - t2) * 1e3, pass_scoring=(t4 - t3) * 1e3,
+                           gait=(t6 - t5) * 1e3)
+            if self._more:
+                timings["tracker_more_runs"] = more_ms
+            self._fwd.append((pose, score, timings, frame.floor, len(frame.points)))
             return None
         events, steps = self.analyzer.update(pose, frame.floor)
         t4 = time.perf_counter()
@@ -498,18 +528,20 @@ class FrameProcessor:
                                       rng=stage_rng(self.options.seed, "pass_scoring"), mounting=self.options.mounting)
         return float(score_passes(self._scorer, frame, [state], rng=frame_rng(self.options.seed, index))[0])
 
-    def backward(self, frames: Any, *, progress: Any = None, score: Any = None, defer_feet: bool = False) -> PassTrack:
+    def backward(self, frames: Any, *, progress: Any = None, score: Any = None, defer_feet: bool = False,
+                 run: int = 0) -> PassTrack:
         """The backward tracking pass over ``frames`` (a :class:`FrameStore` or sequence of prepared frames: every
         frame the forward pass tracked, in recording order), each estimate scored on its frame (by ``score(i, frame,
         state)`` if given, as :func:`~walker_gait.core.smoothing.track_pass` takes it; else here).  ``defer_feet``:
         the poses come without the feet's measures (``LegTracker(defer_feet=True)``) and ``score`` is called as
-        ``score(i, frame, state, pending_feet)`` for the caller to complete them (:meth:`backward_feet`)."""
+        ``score(i, frame, state, pending_feet)`` for the caller to complete them (:meth:`backward_feet`).  ``run``:
+        which of the direction's ``tracker_runs`` runs (its own random stream)."""
         from walker_gait.core.smoothing import track_pass
 
         current: list[Any] = []
 
         def make(frame: Any) -> Any:
-            current[:] = [self._backward_tracker(frame.intrinsics, defer_feet=defer_feet)]
+            current[:] = [self._backward_tracker(frame.intrinsics, defer_feet=defer_feet, run=run)]
             return current[0]
 
         if defer_feet:
@@ -523,12 +555,13 @@ class FrameProcessor:
         return track_pass(make, frames, backward=True, score=score or (lambda i, f, x: self._score(f, x, i)),
                           progress=progress)
 
-    def _backward_tracker(self, intrinsics: Any, *, defer_feet: bool = False) -> Any:
+    def _backward_tracker(self, intrinsics: Any, *, defer_feet: bool = False, run: int = 0) -> Any:
         """A tracker of :meth:`backward`'s (a fresh one per camera, each on the pass's own random stream)."""
         from walker_gait.config import stage_rng
         from walker_gait.core.tracker import LegTracker
 
-        return LegTracker(self.options.tracker, intrinsics, rng=stage_rng(self.options.seed, "leg_tracker_backward"),
+        return LegTracker(self.options.tracker, intrinsics,
+                          rng=stage_rng(self.options.seed, "leg_tracker_backward", run=run),
                           mounting=self.options.mounting, time_reversed=True, defer_feet=defer_feet)
 
     def backward_feet(self, intrinsics: Any) -> Any:
@@ -543,11 +576,11 @@ class FrameProcessor:
         return self.track(self.prepare(stamp=stamp, data=data, encoding=encoding, width=width, height=height,
                                        step=step, is_bigendian=is_bigendian))
 
-    def finish(self, *, backward: PassTrack | None = None, progress: Any = None) -> Finished:
-        """End of the recording.  ``passes="both"``: the backward pass (``backward``, when another process ran it
-        over the same frames, else over the frames kept here; ``progress`` wraps its loop's frame indices, e.g. a
-        tqdm bar), without the poses it alone gave before it had seen both feet
-        (:func:`walker_gait.core.smoothing.wait_for_both_feet`), the passes merged
+    def finish(self, *, backward: Sequence[PassTrack] | None = None, progress: Any = None) -> Finished:
+        """End of the recording.  ``passes="both"``: the backward passes, one per run (``options.tracker_runs``;
+        ``backward``, when another process ran them over the same frames, else over the frames kept here;
+        ``progress`` wraps each loop's frame indices, e.g. a tqdm bar), without the poses each alone gave before it
+        had seen both feet (:func:`walker_gait.core.smoothing.wait_for_both_feet`), every pass merged
         (:func:`walker_gait.core.smoothing.merge_passes`), the gait analyzer over the merged poses.  Then the gait
         analyzer's last events and steps."""
         results: list[FrameResult] = []
@@ -564,25 +597,32 @@ class FrameProcessor:
             )
 
             fwd, self._fwd = self._fwd, []
+            more_fwd, self._more_fwd = self._more_fwd, [[] for _ in range(self._runs - 1)]
             store, self._store = self._store, None
             try:
                 if backward is None:
                     if store is None:
                         raise RuntimeError("no frames kept for the backward pass (keep_frames is off)")
-                    backward = self.backward(store, progress=progress)
+                    backward = [self.backward(store, progress=progress, run=run) for run in range(self._runs)]
             finally:
                 if store is not None:
                     store.close()
             n = len(fwd)
-            if len(backward.poses) != n:
-                raise RuntimeError(f"the backward pass covers {len(backward.poses)} frames, the forward pass {n}")
-            forward = PassTrack(poses=[f[0] for f in fwd], scores=np.array([f[1] for f in fwd], dtype=np.float64),
-                                tracker_ms=np.zeros(n), scoring_ms=np.zeros(n))
+            if len(backward) != self._runs or any(len(b.poses) != n for b in backward):
+                raise RuntimeError(f"{len(backward)} backward passes of {[len(b.poses) for b in backward]} frames "
+                                   f"for {self._runs} forward passes of {n}")
+            forwards = [PassTrack(poses=[f[0] for f in fwd], scores=np.array([f[1] for f in fwd], dtype=np.float64),
+                                  tracker_ms=np.zeros(n), scoring_ms=np.zeros(n))]
+            forwards += [PassTrack(poses=[m[0] for m in run], scores=np.array([m[1] for m in run], dtype=np.float64),
+                                   tracker_ms=np.array([m[2] for m in run], dtype=np.float64), scoring_ms=np.zeros(n))
+                         for run in more_fwd]
             # a track starts where both feet have been seen, whichever way it was tracked (the forward tracker waits
             # for two legs; backwards, an arriving user's first frames end the track)
-            backward = wait_for_both_feet(backward, other=forward)
-            merged = merge_passes([forward, backward])
-            share, kept = merged.share(1), (forward, backward)
+            backwards = [wait_for_both_feet(b, other=f) for b, f in zip(backward, forwards, strict=True)]
+            # forward and backward run by run (ties in the merge go to the first: the forward pass of run 0)
+            passes = [p for pair in zip(forwards, backwards, strict=True) for p in pair]
+            merged = merge_passes(passes)
+            share, kept = sum(merged.share(k) for k in range(1, len(passes), 2)), tuple(passes)
             exchanged = int(merged.exchanged.sum()) if merged.exchanged is not None else 0
             # the analyzer reads the merged track as tracked (its confidences know a hidden foot's held pose for what
             # it is); the poses reported have the hidden feet's stretches bridged and are low-passed
@@ -596,19 +636,25 @@ class FrameProcessor:
             assert self._fwd_alone is not None
             self._fwd_alone.finish()
             t0 = time.perf_counter()
-            alone = GaitAnalyzer(self.options.gait)
-            for pose, floor in zip(backward.poses, floors):
-                alone.update(pose, floor)
-            alone.finish()
-            backward_gait_ms = (time.perf_counter() - t0) * 1e3 / n
-            per_pass = [(self._fwd_alone.events, self._fwd_alone.steps), (alone.events, alone.steps)]
+            per_pass: list[tuple[Sequence[GaitEvent], Sequence[Step]]] = []
+            for k, track in enumerate(passes):
+                if k == 0:
+                    per_pass.append((self._fwd_alone.events, self._fwd_alone.steps))
+                    continue
+                alone = GaitAnalyzer(self.options.gait)
+                for pose, floor in zip(track.poses, floors):
+                    alone.update(pose, floor)
+                alone.finish()
+                per_pass.append((alone.events, alone.steps))
+            passes_gait_ms = (time.perf_counter() - t0) * 1e3 / n
             for i, ((_, _, fwd_ms, floor, n_fg), pose, pose_shown) in enumerate(zip(fwd, merged.poses, shown)):
                 t0 = time.perf_counter()
                 events, steps = self.analyzer.update(pose, floor)
                 t1 = time.perf_counter()
-                timings = dict(fwd_ms, tracker_backward=float(backward.tracker_ms[i]),
-                               pass_scoring=fwd_ms.get("pass_scoring", 0.0) + float(backward.scoring_ms[i]),
-                               gait=(t1 - t0) * 1e3 + backward_gait_ms + fwd_ms.get("gait", 0.0))
+                timings = dict(fwd_ms, tracker_backward=sum(float(b.tracker_ms[i]) for b in backwards),
+                               pass_scoring=fwd_ms.get("pass_scoring", 0.0) + sum(float(b.scoring_ms[i])
+                                                                                  for b in backwards),
+                               gait=(t1 - t0) * 1e3 + passes_gait_ms + fwd_ms.get("gait", 0.0))
                 results.append(FrameResult(pose=pose_shown, floor=floor, events=list(events), steps=list(steps),
                                            n_foreground=n_fg, timings_ms=timings))
             last_ev, last_st = self.analyzer.finish()
@@ -643,19 +689,22 @@ class ProcessResult:
     timings_ms: dict[str, float]
     files: list[Path]
     passes: str = "forward"
-    frames_from_backward_pass: int | None = None  # passes "both": frames whose pose came from the backward pass
-    steps_unconfirmed: int | None = None  # passes "both": steps doubted as the two passes did not both see them alike
+    frames_from_backward_pass: int | None = None  # passes "both": frames whose pose came from a backward pass
+    steps_unconfirmed: int | None = None  # passes "both": steps doubted as the passes did not all see them alike
+    tracker_runs: int | None = None  # passes "both": how many times each direction was tracked
     frames_legs_exchanged_back: int | None = None  # passes "both": frames whose legs a pass had exchanged, taken back
 
     def tracking_note(self) -> str:
         """How the legs were tracked, in words."""
         if self.passes != "both":
             return "tracked forwards (one pass)"
-        note = (f"tracked forwards and backwards, {self.frames_from_backward_pass} of {self.frames} frames' poses "
-                "from the backward pass")
+        runs = self.tracker_runs or 1
+        note = ("tracked forwards and backwards" + (f", {runs} times each way" if runs > 1 else "")
+                + f", {self.frames_from_backward_pass} of {self.frames} frames' poses from "
+                + ("a backward pass" if runs > 1 else "the backward pass"))
         if self.steps_unconfirmed:
-            note += (f"; {self.steps_unconfirmed} of {len(self.steps)} steps not seen alike by both passes (low "
-                     "confidence)")
+            note += (f"; {self.steps_unconfirmed} of {len(self.steps)} steps not seen alike by "
+                     + ("every pass" if runs > 1 else "both passes") + " (low confidence)")
         if self.frames_legs_exchanged_back:
             note += f"; left and right legs a pass had exchanged taken back on {self.frames_legs_exchanged_back} frames"
         return note
@@ -899,8 +948,9 @@ class _Front:
                 prepared = self._reader.at(prepared[1], prepared[2])
             yield frame, prepared
 
-    def backward(self, progress: Any = None) -> PassTrack | None:
-        """The worker's backward pass (None inline); ``progress``: a tqdm-like bar it advances, or None.
+    def backward(self, progress: Any = None) -> list[PassTrack] | None:
+        """The worker's backward passes, one per run of ``tracker_runs`` (None inline); ``progress``: a tqdm-like bar
+        it advances, or None.
 
         The worker sends the backward tracker's state after each frame and this process, idle once its forward pass
         is done, scores it (:meth:`FrameProcessor._score`, on the frame read back from the worker's store) and takes
@@ -911,12 +961,15 @@ class _Front:
             return None
         assert self._reader is not None
         n = len(self._stored)
-        scores = np.full(n, np.nan)
-        scoring_ms = np.zeros(n)
-        feet: list[tuple[Any, Any, Any] | None] = [None] * n  # each frame's measured (points, shoe rise, shoe turn)
-        feet_ms = np.zeros(n)  # their time, the tracker's work done here
-        last: tuple[Any, Any, Any] | None = None  # of the last pose estimated, which a held pose repeats
+        runs = self.proc._runs
+        scores = np.full((runs, n), np.nan)
+        scoring_ms = np.zeros((runs, n))
+        # each run's, each frame's measured (points, shoe rise, shoe turn)
+        feet: list[list[tuple[Any, Any, Any] | None]] = [[None] * n for _ in range(runs)]
+        feet_ms = np.zeros((runs, n))  # their time, the tracker's work done here
+        last: list[tuple[Any, Any, Any] | None] = [None] * runs  # of each run's last pose estimated, which a held pose repeats
         reports: dict[Any, Any] = {}
+        done: list[PassTrack | None] = [None] * runs
         while True:
             kind, payload = self._get()
             if kind == "bprog":
@@ -924,29 +977,33 @@ class _Front:
                     progress.update(payload)
                 continue
             if kind == "bstate":
-                i, state, pending = payload
+                run, i, state, pending = payload
                 t0 = time.perf_counter()
                 frame = self._reader.at(*self._stored[i])
-                scores[i] = self.proc._score(frame, state, i)
+                scores[run, i] = self.proc._score(frame, state, i)
                 t1 = time.perf_counter()
                 if pending is not None:
                     if frame.intrinsics not in reports:
                         reports[frame.intrinsics] = self.proc.backward_feet(frame.intrinsics)
-                    last = reports[frame.intrinsics].measured(pending, points=frame.points, floor=frame.floor,
-                                                              no_depth=frame.no_depth)
-                feet[i] = last
-                scoring_ms[i] = (t1 - t0) * 1e3
-                feet_ms[i] = (time.perf_counter() - t1) * 1e3
+                    last[run] = reports[frame.intrinsics].measured(pending, points=frame.points, floor=frame.floor,
+                                                                   no_depth=frame.no_depth)
+                feet[run][i] = last[run]
+                scoring_ms[run, i] = (t1 - t0) * 1e3
+                feet_ms[run, i] = (time.perf_counter() - t1) * 1e3
                 continue
             if kind == "backward":
-                if len(payload.poses) != n or np.isnan(scores).any():
-                    raise RuntimeError(f"the frame-preparing worker's backward pass covers {len(payload.poses)} "
-                                       f"frames, {int(np.isnan(scores).sum())} of them unscored, of {n}")
+                run, track = payload
+                if len(track.poses) != n or np.isnan(scores[run]).any():
+                    raise RuntimeError(f"the frame-preparing worker's backward pass {run} covers {len(track.poses)} "
+                                       f"frames, {int(np.isnan(scores[run]).sum())} of them unscored, of {n}")
                 poses = [p if m is None or not np.all(np.isfinite(p.points)) else
                          dataclasses.replace(p, points=m[0], shoe_rise=m[1], shoe_turn=m[2])
-                         for p, m in zip(payload.poses, feet, strict=True)]
-                return dataclasses.replace(payload, poses=poses, scores=scores, scoring_ms=scoring_ms,
-                                           tracker_ms=payload.tracker_ms + feet_ms)
+                         for p, m in zip(track.poses, feet[run], strict=True)]
+                done[run] = dataclasses.replace(track, poses=poses, scores=scores[run], scoring_ms=scoring_ms[run],
+                                                tracker_ms=track.tracker_ms + feet_ms[run])
+                if all(d is not None for d in done):
+                    return [d for d in done if d is not None]
+                continue
             raise RuntimeError(f"unexpected message {kind!r} from the frame-preparing worker")
 
 
@@ -985,10 +1042,8 @@ def _front_worker(q: Any, recording: Any, proc: FrameProcessor, store_path: Path
     if item[0] != "done" or store is None:
         return
     try:
-        done = 0
-
         def counted(order: Iterable[int]) -> Iterator[int]:
-            nonlocal done
+            done = 0
             for i in order:
                 yield i
                 done += 1
@@ -996,16 +1051,17 @@ def _front_worker(q: Any, recording: Any, proc: FrameProcessor, store_path: Path
                     q.put(("bprog", 15, []))
             q.put(("bprog", done % 15, []))
 
-        def send(i: int, frame: Any, state: Any, feet: Any) -> float:  # scored and completed by the parent
-            q.put(("bstate", (i, state, feet), []))
-            return math.nan
+        for run in range(proc._runs):  # each run's pass sent as it ends, its states scored meanwhile by the parent
+            def send(i: int, frame: Any, state: Any, feet: Any, run: int = run) -> float:
+                q.put(("bstate", (run, i, state, feet), []))  # scored and completed by the parent
+                return math.nan
 
-        result: tuple[str, Any] = ("backward", proc.backward(store, progress=counted, score=send, defer_feet=True))
+            q.put(("backward", (run, proc.backward(store, progress=counted, score=send, defer_feet=True, run=run)),
+                   []))
     except Exception as exc:  # noqa: BLE001 - raised in the parent
-        result = ("error", exc)
+        q.put(("error", exc, []))
     finally:
         store.close()
-    q.put((*result, []))
 
 
 def _load_kernels_beside() -> threading.Thread:
@@ -1110,7 +1166,7 @@ def process_recording(path: Path, out_dir: Path, *, options: PipelineOptions | N
         if front.forked and two_way:
             if options.write_report:  # imported (matplotlib, ~0.4 s) while the worker still tracks backwards
                 import walker_gait.report  # noqa: F401
-            bar = _progress_bar(total=len(kept), enabled=progress, desc=f"{path.name} (backward)")
+            bar = _progress_bar(total=len(kept) * options.tracker_runs, enabled=progress, desc=f"{path.name} (backward)")
             try:
                 backward = front.backward(bar)
             finally:
@@ -1151,6 +1207,7 @@ def process_recording(path: Path, out_dir: Path, *, options: PipelineOptions | N
         "preset": options.preset,
         "seed": options.seed,
         "passes": options.passes,
+        "tracker_runs": options.tracker_runs if two_way else None,
         "frames_from_backward_pass": (round(finished.backward_share * processed) if two_way and processed else None),
         "steps_unconfirmed": finished.unconfirmed_steps if two_way else None,
         "frames_legs_exchanged_back": finished.exchanged_frames if two_way else None,
@@ -1205,6 +1262,7 @@ def process_recording(path: Path, out_dir: Path, *, options: PipelineOptions | N
     return ProcessResult(input=path, out_dir=out_dir, frames=processed, skipped=dict(skipped), steps=steps,
                          events=events, poses=poses, summary=summary, wall_s=time.perf_counter() - t_start,
                          timings_ms=timings, files=files, passes=options.passes,
+                         tracker_runs=options.tracker_runs if two_way else None,
                          frames_from_backward_pass=metadata["frames_from_backward_pass"],
                          steps_unconfirmed=metadata["steps_unconfirmed"],
                          frames_legs_exchanged_back=metadata["frames_legs_exchanged_back"])

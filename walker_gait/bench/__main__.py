@@ -114,8 +114,9 @@ def section_endtoend(scenarios: tuple[str, ...], duration: float, seed: int) -> 
                 f"ms/frame, step length err {pm(sc.step_length_err_cm)} cm")
             scores.append(sc)
     lines = ["## End-to-end accuracy per scenario (preset `default`; `accurate` in its own row), cues side by side", "",
-             "`walker-gait process` as it runs by default: the recording tracked forwards and backwards in time and "
-             "the two passes merged frame by frame (`--passes both`); the `combined, one pass` row is the forward "
+             "`walker-gait process` as it runs by default: the recording tracked forwards and backwards in time, "
+             "each direction twice (`--tracker-runs 2`), and the four passes merged frame by frame (`--passes "
+             "both`); the `combined, one pass` row is the first forward "
              "pass alone (`--passes forward`), what the live graph computes; the `combined, one pass, bridged live` row "
              "is the same run as the live `leg_tracker` publishes it on `leg_track_bridged` (each stretch in which a "
              "foot was hidden bridged once it is seen again, its frames held until then: `bridge_hidden_s`; the steps "
@@ -125,8 +126,8 @@ def section_endtoend(scenarios: tuple[str, ...], duration: float, seed: int) -> 
              "shank + ankle height), which sets the reported thighs and calves (the hips' height) and nothing "
              "else; the `combined, preset accurate` row is `--preset accurate` (288 particles instead of 192, for offline use). "
              "`tracker ms/frame` is the forward pass "
-             "(the live tracker's work per frame); `pipeline frames/s` counts every offline stage, the backward pass "
-             "and the scoring of both passes included.",
+             "(the live tracker's work per frame); `pipeline frames/s` counts every offline stage, the further runs, "
+             "the backward passes and the scoring of every pass included.",
              "",
              "Step length / width error: mean ± SD of |detected − true| over matched steps, cm (the seed paper's",
              "Tables 2-3 report the combined cue at 2.73-3.87 cm length and 1.75-3.04 cm width on real subjects).",

@@ -247,7 +247,7 @@ class PipelineRun:
     timing_ms: dict[str, float]  # summed over frames, per STAGES entry
     tracker_ms: list[float]  # per frame
     floors: list[Any] = field(default_factory=list)  # FloorPlane per frame, as the pipeline estimated it
-    passes: tuple[Any, ...] = ()  # two passes: the forward and backward PassTrack that were merged into ``poses``
+    passes: tuple[Any, ...] = ()  # two passes: the PassTracks merged into ``poses`` (forward, backward per tracker run)
 
 
 def recording_frames(session: Any, frames: Sequence[np.ndarray]) -> list[SimpleNamespace]:
@@ -268,10 +268,11 @@ def true_leg_length(session: Any) -> float:
 
 def run_pipeline(session: Any, rendered: Rendered, *, preset: str = "default", cue: str | None = None, seed: int = 0,
                  max_frames: int | None = None, overrides: dict[str, Any] | None = None,
-                 passes: str = "both", leg_length_m: float = 0.0) -> PipelineRun:
+                 passes: str = "both", leg_length_m: float = 0.0, tracker_runs: int | None = None) -> PipelineRun:
     """The offline pipeline (``FrameProcessor``) on a session's rendered frames, as ``walker-gait process``
-    runs it; tracker ``preset`` with ``overrides`` (``TrackerConfig`` fields) and ``cue``; ``passes`` and
-    ``leg_length_m`` as ``PipelineOptions``' (``forward``: the live graph's one pass)."""
+    runs it; tracker ``preset`` with ``overrides`` (``TrackerConfig`` fields) and ``cue``; ``passes``,
+    ``leg_length_m`` and ``tracker_runs`` (None: the default) as ``PipelineOptions``' (``forward``: the live graph's
+    one pass)."""
     import dataclasses
 
     from walker_gait.core.tracker import preset as tracker_preset
@@ -284,7 +285,8 @@ def run_pipeline(session: Any, rendered: Rendered, *, preset: str = "default", c
     if changes:
         tracker = dataclasses.replace(tracker, **changes)
     proc = FrameProcessor(PipelineOptions(preset=preset, tracker=tracker, seed=seed, write_mcap=False,
-                                          write_report=False, passes=passes, leg_length_m=leg_length_m))
+                                          write_report=False, passes=passes, leg_length_m=leg_length_m,
+                                          **({} if tracker_runs is None else {"tracker_runs": tracker_runs})))
     proc.set_camera_info(SimpleNamespace(**session.camera_info()))
     n = len(rendered.frames) if max_frames is None else min(len(rendered.frames), max_frames)
     intr = session.intrinsics

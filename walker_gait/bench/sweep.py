@@ -82,7 +82,7 @@ class SessionRun:
     tracker_ms: float  # mean per frame after the first
     poses: list[LegPose] = field(default_factory=list, repr=False)  # the pipeline's tracked poses, per frame
     floors: list[FloorPlane] = field(default_factory=list, repr=False)  # the floor the pipeline estimated, per frame
-    passes: tuple[PassTrack, ...] = field(default=(), repr=False)  # two passes: forward and backward, before merging
+    passes: tuple[PassTrack, ...] = field(default=(), repr=False)  # two passes: forward and backward per tracker run, before merging
     truth_angles: np.ndarray = field(default_factory=lambda: np.zeros((0, len(JOINT_NAMES))), repr=False)  # (T, 12) rad; empty in runs stored before it was kept
 
     @property
@@ -185,10 +185,11 @@ def _rendered(session: Any, cache: Path | None, name: str) -> Any:
 
 def run_session(scenario: str, seed: int, *, duration: float, tracker_seeds: tuple[int, ...],
                 overrides: dict[str, Any] | None = None, cache: Path | None = None,
-                spec: dict[str, Any] | None = None, passes: str = "both") -> list[SessionRun]:
+                spec: dict[str, Any] | None = None, passes: str = "both",
+                tracker_runs: int | None = None) -> list[SessionRun]:
     """Generate (or load the cached render of) one session and track it once per tracker seed; ``spec``:
-    ``SessionSpec`` overrides of the scenario's preset (other subjects, cameras, mounts); ``passes`` as
-    ``PipelineOptions.passes``."""
+    ``SessionSpec`` overrides of the scenario's preset (other subjects, cameras, mounts); ``passes`` and
+    ``tracker_runs`` (None: the default) as ``PipelineOptions``'."""
     from walker_gait.bench.endtoend import _gt_as_steps, present_frames, run_pipeline, trackable_frames
     from walker_gait.bench.gait import match_steps
 
@@ -202,7 +203,7 @@ def run_session(scenario: str, seed: int, *, duration: float, tracker_seeds: tup
     floor = session.params.mount.floor_plane()
     out = []
     for ts in tracker_seeds:
-        run = run_pipeline(session, rendered, seed=ts, overrides=overrides, passes=passes)
+        run = run_pipeline(session, rendered, seed=ts, overrides=overrides, passes=passes, tracker_runs=tracker_runs)
         pairs, _, _ = match_steps(gt, run.steps)
         out.append(SessionRun(
             key=f"{scenario}:{seed}", tracker_seed=ts, stamps=stamps,
@@ -611,11 +612,11 @@ def format_oracle(rep: dict[str, Any]) -> str:
     return "\n".join(lines)
 
 
-def _work(args: tuple[str, int, float, tuple[int, ...], dict[str, Any], Path | None, dict[str, Any], str]
-          ) -> list[SessionRun]:
-    scenario, seed, duration, seeds, overrides, cache, spec, passes = args
+def _work(args: tuple[str, int, float, tuple[int, ...], dict[str, Any], Path | None, dict[str, Any], str,
+                      int | None]) -> list[SessionRun]:
+    scenario, seed, duration, seeds, overrides, cache, spec, passes, tracker_runs = args
     return run_session(scenario, seed, duration=duration, tracker_seeds=seeds, overrides=overrides, cache=cache,
-                       spec=spec, passes=passes)
+                       spec=spec, passes=passes, tracker_runs=tracker_runs)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -635,6 +636,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--jobs", type=int, default=os.cpu_count() or 1)
     ap.add_argument("--passes", choices=("both", "forward"), default="both",
                     help="tracking passes, as `walker-gait process --passes` (default both; forward: the live graph's one)")
+    ap.add_argument("--tracker-runs", type=int, default=None, metavar="N",
+                    help="with --passes both: each direction tracked N times, as `walker-gait process --tracker-runs` "
+                         "(default: its default, 2; 1 takes half the time)")
     ap.add_argument("--oracle", action="store_true", help="also step figures with true toes/heels/ankles substituted")
     ap.add_argument("--reanalyse", type=Path, metavar="DIR",
                     help="no tracking: re-run the gait analyzer on the tracked poses of the sweep in DIR (its runs.pkl)")
@@ -675,7 +679,11 @@ def main(argv: list[str] | None = None) -> int:
         print(f"sweep: bad --spec-override {a.spec_override!r}: {exc}", file=sys.stderr)
         return 2
     sessions = session_list(tuple(a.scenarios), a.per_scenario, a.base_seed)
-    jobs = [(sc, sd, a.duration, tuple(a.tracker_seeds), overrides, a.cache, spec, a.passes) for sc, sd in sessions]
+    if a.tracker_runs is not None and a.passes != "both":
+        print("sweep: --tracker-runs applies to --passes both", file=sys.stderr)
+        return 2
+    jobs = [(sc, sd, a.duration, tuple(a.tracker_seeds), overrides, a.cache, spec, a.passes, a.tracker_runs)
+            for sc, sd in sessions]
     t0 = time.perf_counter()
     runs: list[SessionRun] = []
     from tqdm import tqdm
@@ -685,6 +693,7 @@ def main(argv: list[str] | None = None) -> int:
             runs.extend(res)
     config = {"override": overrides, "spec_override": spec, "scenarios": a.scenarios, "per_scenario": a.per_scenario,
               "base_seed": a.base_seed, "tracker_seeds": a.tracker_seeds, "duration": a.duration, "passes": a.passes,
+              "tracker_runs": a.tracker_runs,
               "seconds": round(time.perf_counter() - t0, 1)}
     _write(a.out, runs, config, with_oracle=a.oracle)
     print(f"[sweep] {len(sessions)} sessions x {len(a.tracker_seeds)} tracker seeds in {time.perf_counter() - t0:.0f} s -> "
