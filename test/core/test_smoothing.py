@@ -580,7 +580,7 @@ def _step(stamp: float, side: Side, length: float, confidence: float = 1.0) -> S
                 double_support_time=nan, confidence=confidence)
 
 
-def test_steps_are_confirmed_only_when_every_pass_sees_them_alike() -> None:
+def test_steps_are_confirmed_only_when_the_passes_see_them_alike() -> None:
     merged = [_step(1.0, Side.LEFT, 0.50), _step(1.6, Side.RIGHT, 0.45, 0.8), _step(2.2, Side.LEFT, 0.50),
               _step(2.8, Side.RIGHT, 0.40), _step(3.4, Side.LEFT, float("nan"))]
     fwd = [_step(1.05, Side.LEFT, 0.52), _step(1.6, Side.RIGHT, 0.46), _step(2.2, Side.LEFT, 0.30),
@@ -598,6 +598,16 @@ def test_steps_are_confirmed_only_when_every_pass_sees_them_alike() -> None:
                                                                                [UNCONFIRMED_FACTOR] * 3)
     with pytest.raises(ValueError, match="factor"):
         confirm_steps(merged, [fwd], factor=1.5)
+    # four passes (each direction tracked twice): three of them confirming suffice, two do not; share=1: all four
+    four = confirm_steps(merged, [fwd, bwd, merged, merged])
+    assert [s.confidence for s in four] == pytest.approx([1.0, 0.8, 1.0, 1.0, 1.0])
+    # 1.6: three of four (the backward pass alone misses it); 2.2 / 2.8: two of four
+    assert [s.confidence for s in confirm_steps(merged, [fwd, bwd, merged, fwd])] == pytest.approx(
+        [1.0, 0.8, UNCONFIRMED_FACTOR, UNCONFIRMED_FACTOR, 1.0])
+    assert [s.confidence for s in confirm_steps(merged, [fwd, bwd, merged, merged], share=1.0)] == \
+        pytest.approx([s.confidence for s in out])
+    with pytest.raises(ValueError, match="share"):
+        confirm_steps(merged, [fwd], share=0.0)
 
 
 def test_step_lengths_are_the_median_of_the_three_analyses_where_every_pass_has_the_step() -> None:
