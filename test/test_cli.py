@@ -53,11 +53,12 @@ def test_passes_choose_one_or_two_tracking_passes(real_bag: Path, tmp_path: Path
     assert meta_one["passes"] == "forward" and meta_two["passes"] == "both"
     assert meta_one["leg_length_m"] == 0.9 and meta_two["leg_length_m"] is None
     assert "tracked forwards (one pass)" in one.stdout and "tracked forwards and backwards" in two.stdout
-    assert meta_one["tracker_runs"] is None and meta_two["tracker_runs"] == 2
+    assert meta_one["tracker_runs"] is None and meta_two["tracker_runs"] == 1
     # each direction tracked once or more; a number of runs for the one pass, or out of range, is refused
-    once = walker_gait("process", str(real_bag), "--out", str(tmp_path / "once"), "--tracker-runs", "1")
-    assert once.returncode == 0, once.stderr
-    assert json.loads((tmp_path / "once" / "summary.json").read_text())["metadata"]["tracker_runs"] == 1
+    twice = walker_gait("process", str(real_bag), "--out", str(tmp_path / "twice"), "--tracker-runs", "2")
+    assert twice.returncode == 0, twice.stderr
+    assert json.loads((tmp_path / "twice" / "summary.json").read_text())["metadata"]["tracker_runs"] == 2
+    assert "2 times each way" in twice.stdout
     for args in (("--passes", "forward", "--tracker-runs", "2"), ("--tracker-runs", "0"), ("--tracker-runs", "9")):
         bad = walker_gait("process", str(real_bag), "--out", str(tmp_path / "bad"), *args)
         assert bad.returncode == 2 and "tracker-runs" in bad.stderr.replace("_", "-"), bad.stderr

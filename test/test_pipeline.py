@@ -52,7 +52,7 @@ def test_worker_backward_pass_is_scored_here_as_inline(short_session: Path) -> N
     from walker_gait.io.bags import open_recording
     from walker_gait.pipeline import FrameProcessor, _Front
 
-    proc = FrameProcessor(_options(3))
+    proc = FrameProcessor(_options(3, tracker_runs=2))
     frames = []
     with _Front(open_recording(short_session), proc, prefetch=3, two_way=True) as front:
         assert front.forked
@@ -62,7 +62,7 @@ def test_worker_backward_pass_is_scored_here_as_inline(short_session: Path) -> N
         passes = front.backward()
     assert passes is not None and len(passes) == proc.options.tracker_runs == 2  # one per run
     for run, worker in enumerate(passes):
-        inline = FrameProcessor(_options(0)).backward(frames, run=run)
+        inline = FrameProcessor(_options(0, tracker_runs=2)).backward(frames, run=run)
         assert len(worker.poses) == len(frames) == 75
         assert np.isfinite(worker.scores).sum() >= 60  # scored, not left NaN or -inf
         np.testing.assert_array_equal(worker.scores, inline.scores)
@@ -469,14 +469,16 @@ def test_two_passes_merge_the_forward_pass_with_a_backward_one(short_session: Pa
 
 
 def test_each_direction_tracked_more_than_once_merges_every_run(short_session: Path, tmp_path: Path) -> None:
-    """``tracker_runs=2`` (the default): forwards and backwards each tracked twice, each run on a random stream of its
-    own; the first run's passes are the one-run pipeline's, the second run's differ from them, and every frame's
-    pose is the merge of all four passes (forward, backward, forward, backward) as reported."""
+    """``tracker_runs=2`` (the ``accurate`` preset's): forwards and backwards each tracked twice, each run on a random
+    stream of its own; the first run's passes are the one-run pipeline's, the second run's differ from them, and every
+    frame's pose is the merge of all four passes (forward, backward, forward, backward) as reported."""
     import json
 
     from walker_gait.core.smoothing import merge_passes, reported_poses, wait_for_both_feet
 
-    assert PipelineOptions().tracker_runs == 2
+    assert PipelineOptions().tracker_runs == PipelineOptions(preset="paper").tracker_runs == 1  # the preset's
+    assert PipelineOptions(preset="accurate").tracker_runs == 2 and PipelineOptions(preset="accurate",
+                                                                                    tracker_runs=1).tracker_runs == 1
     proc, prep, frames = _forward_pass_and_frames(short_session, tracker_runs=2)
     fin = proc.finish()
     assert len(fin.passes) == 4 and all(len(p.poses) == 75 for p in fin.passes)
@@ -498,7 +500,7 @@ def test_each_direction_tracked_more_than_once_merges_every_run(short_session: P
     assert fin.backward_share == pytest.approx(merged.share(1) + merged.share(3))
     # the further forward run's work is timed apart from the live tracker's (the tracker stage is run 0 alone)
     assert all(r.timings_ms["tracker_more_runs"] > 0 for r in fin.results)
-    res = process_recording(short_session, tmp_path / "out", options=_options(0), progress=False)
+    res = process_recording(short_session, tmp_path / "out", options=_options(0, tracker_runs=2), progress=False)
     meta = json.loads((tmp_path / "out" / "summary.json").read_text())["metadata"]
     assert meta["tracker_runs"] == res.tracker_runs == 2 and "2 times each way" in res.describe()
     np.testing.assert_array_equal([p.points for p in res.poses], [r.pose.points for r in fin.results])

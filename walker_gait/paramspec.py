@@ -43,7 +43,9 @@ NODE_PARAMS: dict[str, list[tuple[str, Any, str]]] = {
     "leg_tracker": [
         ("preset", "default", "`default` (real time: partitioned + annealed sampling, low-res 2D cue), `accurate` "
                               "(offline: the default with 288 particles instead of 192, 1.5x its time, step lengths ~10 % "
-                              "better on average over the synthetic sweeps, not in every scenario) or `paper` (the seed's 5000 particles, full-res 2D cue); the fields below "
+                              "better on average over the synthetic sweeps, not in every scenario; `walker-gait process` "
+                              "also tracks each direction twice with it, `--tracker-runs`) or `paper` (the seed's 5000 "
+                              "particles, full-res 2D cue); the fields below "
                               "override the preset"),
         ("mounting", "facing_user", "`facing_user`: camera looks back at the user, whose left leg is on the "
                                     "image's right (+x); `facing_forward` flips left/right"),

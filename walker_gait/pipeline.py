@@ -44,6 +44,10 @@ STRUCTURE_STRIDE = 2
 
 MAX_TRACKER_RUNS = 8
 """The most runs per direction ``PipelineOptions.tracker_runs`` takes (each costs one more tracking of the recording)."""
+PRESET_TRACKER_RUNS = {"paper": 1, "default": 1, "accurate": 2}
+"""How many times ``process`` tracks each direction by tracker preset when ``tracker_runs`` is not given: ``default``
+keeps a 10 s recording's processing under 10 s on two cores (7-8 s with one run, 16 with two); ``accurate``, the
+offline preset, spends the time on a second run, which gains more than its extra particles (eighty-second session)."""
 
 
 @dataclasses.dataclass(kw_only=True)
@@ -66,8 +70,9 @@ class PipelineOptions:
     write_report: bool = True
     prefetch: int = 4  # frames decoded + segmented ahead in a forked worker process (0: all in this process)
     passes: str = "both"  # "both": tracked forwards and backwards, merged (core.smoothing); "forward": as the live graph
-    # "both": each direction tracked this many times, each run on a random stream of its own, every run merged
-    tracker_runs: int = 2
+    # "both": each direction tracked this many times, each run on a random stream of its own, every run merged;
+    # None: the preset's (PRESET_TRACKER_RUNS: 1, 2 with "accurate")
+    tracker_runs: int | None = None
     store_memory_mb: int = 256  # "both": prepared frames kept in memory up to this size, beyond it in a temporary file
     # "both": a hidden foot's stretch up to this long bridged in the reported poses (smoothing.bridge_hidden_legs; 0 = off)
     bridge_hidden_s: float = 1.0
@@ -89,6 +94,8 @@ class PipelineOptions:
 
         if self.passes not in PASSES:
             raise ParameterError(f"passes must be one of {', '.join(PASSES)}, got {self.passes!r}")
+        if self.tracker_runs is None:
+            self.tracker_runs = PRESET_TRACKER_RUNS.get(self.preset, 1)
         if isinstance(self.tracker_runs, bool) or not isinstance(self.tracker_runs, int) or \
                 not 1 <= self.tracker_runs <= MAX_TRACKER_RUNS:
             raise ParameterError(f"tracker_runs must be a whole number from 1 to {MAX_TRACKER_RUNS}, got "
@@ -1166,7 +1173,7 @@ def process_recording(path: Path, out_dir: Path, *, options: PipelineOptions | N
         if front.forked and two_way:
             if options.write_report:  # imported (matplotlib, ~0.4 s) while the worker still tracks backwards
                 import walker_gait.report  # noqa: F401
-            bar = _progress_bar(total=len(kept) * options.tracker_runs, enabled=progress, desc=f"{path.name} (backward)")
+            bar = _progress_bar(total=len(kept) * (options.tracker_runs or 1), enabled=progress, desc=f"{path.name} (backward)")
             try:
                 backward = front.backward(bar)
             finally:

@@ -90,12 +90,13 @@ def section_endtoend(scenarios: tuple[str, ...], duration: float, seed: int) -> 
         session = generate_session(SessionSpec.preset(name, duration=dur), rng=np.random.default_rng(seed + k))
         rendered = render(session)
         log(f"[bench] {name}: {len(rendered.frames)} frames rendered in {rendered.seconds:.0f} s")
-        runs = [(c, "both", 0.0, "default") for c in CUES] + [("combined", "forward", 0.0, "default"),
-                                                              ("combined", "both", true_leg_length(session), "default"),
-                                                              ("combined", "both", 0.0, "accurate")]
-        for cue, passes, leg, preset in runs:
+        runs = [(c, "both", 0.0, "default", None) for c in CUES] + [
+            ("combined", "forward", 0.0, "default", None), ("combined", "both", 0.0, "default", 2),
+            ("combined", "both", true_leg_length(session), "default", None), ("combined", "both", 0.0, "accurate", None)]
+        for cue, passes, leg, preset, tracker_runs in runs:
             t0 = time.perf_counter()
-            run = run_pipeline(session, rendered, preset=preset, cue=cue, seed=seed, passes=passes, leg_length_m=leg)
+            run = run_pipeline(session, rendered, preset=preset, cue=cue, seed=seed, passes=passes, leg_length_m=leg,
+                               tracker_runs=tracker_runs)
             sc = evaluate(session, preset=preset, cue=cue, seed=seed, rendered=rendered, passes=passes,
                           leg_length_m=leg, run=run)
             if passes == "forward":
@@ -107,6 +108,8 @@ def section_endtoend(scenarios: tuple[str, ...], duration: float, seed: int) -> 
                                          cue=f"{cue}, one pass, bridged live")
             if leg:
                 sc = dataclasses.replace(sc, cue=f"{cue}, leg length given")
+            if tracker_runs is not None:
+                sc = dataclasses.replace(sc, cue=f"{cue}, two runs")
             if preset != "default":
                 sc = dataclasses.replace(sc, cue=f"{cue}, preset {preset}")
             log(f"[bench]   {preset}/{sc.cue}: {time.perf_counter() - t0:.0f} s, "
@@ -114,17 +117,18 @@ def section_endtoend(scenarios: tuple[str, ...], duration: float, seed: int) -> 
                 f"ms/frame, step length err {pm(sc.step_length_err_cm)} cm")
             scores.append(sc)
     lines = ["## End-to-end accuracy per scenario (preset `default`; `accurate` in its own row), cues side by side", "",
-             "`walker-gait process` as it runs by default: the recording tracked forwards and backwards in time, "
-             "each direction twice (`--tracker-runs 2`), and the four passes merged frame by frame (`--passes "
-             "both`); the `combined, one pass` row is the first forward "
-             "pass alone (`--passes forward`), what the live graph computes; the `combined, one pass, bridged live` row "
+             "`walker-gait process` as it runs by default: the recording tracked forwards and backwards in time and "
+             "the two passes merged frame by frame (`--passes both`); the `combined, one pass` row is the forward "
+             "pass alone (`--passes forward`), what the live graph computes; the `combined, two runs` row tracks "
+             "each direction twice (`--tracker-runs 2`: four passes merged); the `combined, one pass, bridged live` row "
              "is the same run as the live `leg_tracker` publishes it on `leg_track_bridged` (each stretch in which a "
              "foot was hidden bridged once it is seen again, its frames held until then: `bridge_hidden_s`; the steps "
              "are the one-pass row's, the live analyzer reads `leg_track`; how long frames were held is listed below "
              "the table); the `combined, leg length given` row is "
              "`--passes both` told the user's leg length (`--leg-length-m`, the synthetic user's true one: thigh + "
              "shank + ankle height), which sets the reported thighs and calves (the hips' height) and nothing "
-             "else; the `combined, preset accurate` row is `--preset accurate` (288 particles instead of 192, for offline use). "
+             "else; the `combined, preset accurate` row is `--preset accurate` (288 particles instead of 192, each direction "
+             "tracked twice, for offline use). "
              "`tracker ms/frame` is the forward pass "
              "(the live tracker's work per frame); `pipeline frames/s` counts every offline stage, the further runs, "
              "the backward passes and the scoring of every pass included.",
@@ -263,13 +267,22 @@ def section_process_and_live(seed: int, live: bool) -> list[str]:
         lines += [f"* `process`: {res.frames} frames in **{wall:.1f} s wall** (target ≤ 10 s), I/O and report "
                   f"included; mean stage times ms/frame: "
                   + ", ".join(f"{k} {v:.1f}" for k, v in res.timings_ms.items())]
+        log("[bench] process --tracker-runs 2")
+        t0 = time.perf_counter()
+        twice = process_recording(bag, Path(tmp) / "out_twice", options=PipelineOptions(seed=seed, tracker_runs=2),
+                                  progress=False)
+        lines += [f"* `process --tracker-runs 2` (each direction tracked twice): {twice.frames} frames in "
+                  f"{time.perf_counter() - t0:.1f} s wall; tracker {twice.timings_ms['tracker']:.1f} ms/frame forwards "
+                  f"and {twice.timings_ms['tracker_more_runs']:.1f} for the second run, "
+                  f"{twice.timings_ms['tracker_backward']:.1f} backwards (both runs)"]
         log("[bench] process --preset accurate")
         t0 = time.perf_counter()
         acc = process_recording(bag, Path(tmp) / "out_accurate", options=PipelineOptions(seed=seed, preset="accurate"),
                                 progress=False)
-        lines += [f"* `process --preset accurate` (offline: 288 particles): {acc.frames} frames in "
-                  f"{time.perf_counter() - t0:.1f} s wall; tracker {acc.timings_ms['tracker']:.1f} ms/frame forwards, "
-                  f"{acc.timings_ms['tracker_backward']:.1f} backwards"]
+        lines += [f"* `process --preset accurate` (offline: 288 particles, each direction tracked twice): {acc.frames} "
+                  f"frames in {time.perf_counter() - t0:.1f} s wall; tracker {acc.timings_ms['tracker']:.1f} ms/frame "
+                  f"forwards and {acc.timings_ms['tracker_more_runs']:.1f} for the second run, "
+                  f"{acc.timings_ms['tracker_backward']:.1f} backwards (both runs)"]
         if live:
             from walker_gait.bench.live import run_live
 
