@@ -320,7 +320,7 @@ def build_parser() -> argparse.ArgumentParser:
                        "e.g. leg_tracker.n_particles=300")
         p.add_argument("--params-file", help="ROS 2 parameters YAML (default: config/walker_gait.yaml)")
         p.add_argument("--preset", default=None, help="tracker preset: default (real time), accurate (offline: 288 "
-                       "particles and each direction tracked twice, --tracker-runs 2: about 2.2x the default's time, "
+                       "particles and each direction tracked twice, --tracker-runs 2: about twice the default's time, "
                        "heels about 12 %% nearer the truth on the synthetic sweeps) or paper (the seed's)")
         p.add_argument("--seed", type=int, default=0)
         p.add_argument("--passes", choices=("both", "forward"), default="both",
