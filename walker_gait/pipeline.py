@@ -46,7 +46,7 @@ MAX_TRACKER_RUNS = 8
 """The most runs per direction ``PipelineOptions.tracker_runs`` takes (each costs one more tracking of the recording)."""
 PRESET_TRACKER_RUNS = {"paper": 1, "default": 1, "accurate": 2}
 """How many times ``process`` tracks each direction by tracker preset when ``tracker_runs`` is not given: ``default``
-keeps a 10 s recording's processing under 10 s on two cores (7-8 s with one run, 16 with two); ``accurate``, the
+keeps a 10 s recording's processing under 10 s on two cores (7.5-9.9 s with one run, 16-17 with two); ``accurate``, the
 offline preset, spends the time on a second run, which gains more than its extra particles (eighty-second session)."""
 
 

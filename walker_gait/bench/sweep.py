@@ -638,7 +638,7 @@ def main(argv: list[str] | None = None) -> int:
                     help="tracking passes, as `walker-gait process --passes` (default both; forward: the live graph's one)")
     ap.add_argument("--tracker-runs", type=int, default=None, metavar="N",
                     help="with --passes both: each direction tracked N times, as `walker-gait process --tracker-runs` "
-                         "(default: its default, 2; 1 takes half the time)")
+                         "(default: the preset's, 1; 2: four passes merged, twice the time)")
     ap.add_argument("--oracle", action="store_true", help="also step figures with true toes/heels/ankles substituted")
     ap.add_argument("--reanalyse", type=Path, metavar="DIR",
                     help="no tracking: re-run the gait analyzer on the tracked poses of the sweep in DIR (its runs.pkl)")
