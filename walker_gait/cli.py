@@ -321,7 +321,7 @@ def build_parser() -> argparse.ArgumentParser:
         p.add_argument("--params-file", help="ROS 2 parameters YAML (default: config/walker_gait.yaml)")
         p.add_argument("--preset", default=None, help="tracker preset: default (real time), accurate (offline: 288 "
                        "particles and each direction tracked twice, --tracker-runs 2: about twice the default's time, "
-                       "heels about 12 %% nearer the truth on the synthetic sweeps) or paper (the seed's)")
+                       "heels about 15 %% nearer the truth on a synthetic sweep) or paper (the seed's)")
         p.add_argument("--seed", type=int, default=0)
         p.add_argument("--passes", choices=("both", "forward"), default="both",
                        help="both (default): track the recording forwards and backwards in time and keep, frame by "
