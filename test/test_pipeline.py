@@ -513,6 +513,11 @@ def test_tracker_runs_must_be_a_small_whole_number() -> None:
         with pytest.raises(ParameterError, match="tracker_runs"):
             PipelineOptions(tracker_runs=bad)
     assert PipelineOptions(tracker_runs=1).tracker_runs == 1
+    # one pass is tracked once, as the live graph tracks: the accurate preset's two runs do not apply, and asking for
+    # more is refused
+    assert PipelineOptions(passes="forward", preset="accurate").tracker_runs == 1
+    with pytest.raises(ParameterError, match="tracker_runs applies to passes 'both'"):
+        PipelineOptions(passes="forward", tracker_runs=2)
 
 
 def test_one_pass_reports_the_pelvis_placed_frame_by_frame_as_the_live_node(short_session: Path) -> None:

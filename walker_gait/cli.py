@@ -214,16 +214,6 @@ def _report_options(args: argparse.Namespace) -> dict[str, float]:
             if (value := getattr(args, name, None)) is not None}
 
 
-def _tracking_options(args: argparse.Namespace) -> dict[str, int]:
-    """``tracker_runs`` where given on the command line (it applies to two passes only)."""
-    runs = getattr(args, "tracker_runs", None)
-    if runs is None:
-        return {}
-    if args.passes != "both":
-        raise UserError("--tracker-runs applies to --passes both (the live graph's one pass is tracked once)")
-    return {"tracker_runs": runs}
-
-
 def cmd_process(args: argparse.Namespace) -> int:
     from walker_gait.pipeline import PipelineOptions, process_recording
 
@@ -234,7 +224,7 @@ def cmd_process(args: argparse.Namespace) -> int:
     options = PipelineOptions.from_params(file_params, overrides, preset=args.preset, seed=args.seed,
                                           depth_topic=args.depth_topic, info_topic=args.info_topic,
                                           camera_info_file=args.camera_info, passes=args.passes,
-                                          **_tracking_options(args), **_report_options(args))
+                                          tracker_runs=args.tracker_runs, **_report_options(args))
     result = process_recording(path, Path(args.out), options=options, progress=not args.quiet)
     if not args.quiet:
         print(result.describe())
@@ -246,7 +236,7 @@ def cmd_batch(args: argparse.Namespace) -> int:
 
     file_params, overrides = _pipeline_params(args)
     options = PipelineOptions.from_params(file_params, overrides, preset=args.preset, seed=args.seed,
-                                          passes=args.passes, **_tracking_options(args), **_report_options(args))
+                                          passes=args.passes, tracker_runs=args.tracker_runs, **_report_options(args))
     table = process_batch(Path(args.folder), Path(args.out), options=options, workers=args.workers,
                           progress=not args.quiet)
     print(f"summary table: {table}")

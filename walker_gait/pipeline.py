@@ -94,12 +94,15 @@ class PipelineOptions:
 
         if self.passes not in PASSES:
             raise ParameterError(f"passes must be one of {', '.join(PASSES)}, got {self.passes!r}")
-        if self.tracker_runs is None:
-            self.tracker_runs = PRESET_TRACKER_RUNS.get(self.preset, 1)
+        if self.tracker_runs is None:  # the preset's; one pass is tracked once, as the live graph tracks
+            self.tracker_runs = PRESET_TRACKER_RUNS.get(self.preset, 1) if self.passes == "both" else 1
         if isinstance(self.tracker_runs, bool) or not isinstance(self.tracker_runs, int) or \
                 not 1 <= self.tracker_runs <= MAX_TRACKER_RUNS:
             raise ParameterError(f"tracker_runs must be a whole number from 1 to {MAX_TRACKER_RUNS}, got "
                                  f"{self.tracker_runs!r}")
+        if self.passes != "both" and self.tracker_runs != 1:
+            raise ParameterError(f"tracker_runs applies to passes 'both' (the live graph's one pass is tracked once), "
+                                 f"got {self.tracker_runs} with passes {self.passes!r}")
         for name in ("bridge_hidden_s", "report_lowpass_hz", "report_pelvis_window_s"):
             value = getattr(self, name)
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0):
@@ -364,7 +367,7 @@ class FrameProcessor:
         self._fwd: list[tuple[LegPose, float, dict[str, float], FloorPlane, int]] = []
         # "both": each direction tracked options.tracker_runs times; the further forward runs' trackers (run 1, 2,
         # ...) and per run, per frame their pose, its score and the tracker's time (ms)
-        self._runs = options.tracker_runs if self._two_way else 1
+        self._runs = options.tracker_runs or 1
         self._more: list[Any] = []
         self._more_fwd: list[list[tuple[LegPose, float, float]]] = [[] for _ in range(self._runs - 1)]
         # "forward": the reported pelvis placed frame by frame, as the live leg_tracker node does
@@ -1269,7 +1272,7 @@ def process_recording(path: Path, out_dir: Path, *, options: PipelineOptions | N
     return ProcessResult(input=path, out_dir=out_dir, frames=processed, skipped=dict(skipped), steps=steps,
                          events=events, poses=poses, summary=summary, wall_s=time.perf_counter() - t_start,
                          timings_ms=timings, files=files, passes=options.passes,
-                         tracker_runs=options.tracker_runs if two_way else None,
+                         tracker_runs=metadata["tracker_runs"],
                          frames_from_backward_pass=metadata["frames_from_backward_pass"],
                          steps_unconfirmed=metadata["steps_unconfirmed"],
                          frames_legs_exchanged_back=metadata["frames_legs_exchanged_back"])

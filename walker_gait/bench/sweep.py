@@ -679,8 +679,12 @@ def main(argv: list[str] | None = None) -> int:
         print(f"sweep: bad --spec-override {a.spec_override!r}: {exc}", file=sys.stderr)
         return 2
     sessions = session_list(tuple(a.scenarios), a.per_scenario, a.base_seed)
-    if a.tracker_runs is not None and a.passes != "both":
-        print("sweep: --tracker-runs applies to --passes both", file=sys.stderr)
+    try:  # refused here, not in the workers
+        from walker_gait.pipeline import PipelineOptions
+
+        PipelineOptions(passes=a.passes, tracker_runs=a.tracker_runs)
+    except ValueError as exc:
+        print(f"sweep: {exc}", file=sys.stderr)
         return 2
     jobs = [(sc, sd, a.duration, tuple(a.tracker_seeds), overrides, a.cache, spec, a.passes, a.tracker_runs)
             for sc, sd in sessions]
