@@ -44,6 +44,7 @@ from walker_gait.core.segmentation import (
     FLIP_CONFIRM_ATTEMPTS,
     fit_floor_ransac,
     flipped_up_hint,
+    joined_parts,
     thin_parts,
 )
 from walker_gait.core.types import CameraIntrinsics, FloorPlane
@@ -599,6 +600,47 @@ def test_roi_stays_centred_on_a_wide_stance() -> None:
     for side in (scene.walker[..., 1] > 0, scene.walker[..., 1] < 0):
         part = leg & side & np.isfinite(depth) & (np.abs(scene.walker[..., 1]) < 0.17)
         assert (res.mask & part).sum() >= 0.95 * part.sum()
+
+
+def test_joined_parts_are_those_one_with_the_inside_at_one_depth() -> None:
+    inside = np.zeros((20, 30), dtype=bool)
+    inside[5:15, 8:12] = True  # a leg inside the box ...
+    beyond = np.zeros_like(inside)
+    beyond[5:15, 12:16] = True  # ... that goes on beyond its side
+    beyond[5:15, 22:26] = True  # another part, apart from it in the image
+    beyond[5:15, 4:8] = True  # a part beside the leg in the image, 30 cm behind it
+    depth = np.ones(inside.shape, dtype=np.float32)
+    depth[:, 4:8] = 1.3
+    joined = joined_parts(inside, beyond, depth, max_jump=0.05)
+    want = np.zeros_like(inside)
+    want[5:15, 12:16] = True
+    np.testing.assert_array_equal(joined, want)
+    # with a jump allowed that large, the part behind joins too
+    assert joined_parts(inside, beyond, depth, max_jump=0.5)[5:15, 4:8].all()
+    # nothing inside: nothing joins
+    assert not joined_parts(np.zeros_like(inside), beyond, depth, max_jump=0.05).any()
+
+
+@pytest.mark.parametrize("join", [True, False])
+def test_a_leg_across_the_side_of_the_box_is_kept_whole(join: bool) -> None:
+    """A leg whose axis stands 2 cm beyond the box's right side (walker y -0.195 against -0.175; a user stepping
+    wide, or landing the far foot while the box still follows the legs' approach from the other side): with
+    ``roi.join_edge_parts`` the part of it beyond the side is kept with the rest; another leg wholly beyond the side
+    is not.  Without it the box cuts the first leg along its side."""
+    rng = np.random.default_rng(13)
+    scene = make_synthetic_scene(legs=((0.9, 0.05), (0.9, -0.195), (1.2, -0.30)), leg_radius=0.05, bar=None, posts=())
+    depth = noisy_depth(scene, rng, dropout=0.0, edge_dropout=0.0)
+    leg = (scene.labels == LABEL_LEG) & np.isfinite(depth) & (scene.height > 0.05)
+    crossing = leg & (scene.walker[..., 1] < -0.12) & (scene.walker[..., 1] > -0.25) & (scene.walker[..., 0] < 1.05)
+    apart = leg & (scene.walker[..., 0] > 1.1)
+    assert crossing.sum() > 500 and apart.sum() > 200
+    res = Segmenter(SegmenterConfig(roi=RoiConfig(join_edge_parts=join)), rng=rng).process(depth, PROJ.points(depth))
+    kept = (res.mask & crossing).sum() / crossing.sum()
+    if join:
+        assert kept >= 0.95, kept
+    else:
+        assert kept < 0.6, kept
+    assert (res.mask & apart).sum() == 0
 
 
 # --------------------------------------------------------------------------- background model (seed)

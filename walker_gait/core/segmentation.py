@@ -666,11 +666,23 @@ class RoiConfig:
     center_gain: float = 0.05
     """Auto-centring: fraction of the remaining lateral offset corrected per frame (0.05 at 30 Hz:
     time constant ~0.7 s, so a leg briefly hidden behind the other barely moves the box)."""
+    join_edge_parts: bool = True
+    """Foreground beyond the box's sides, within the band the auto-centred box can reach (``center_max_shift`` either
+    way), is kept where it is one part (8-connected in the image) with foreground inside the box: a leg that crosses
+    the box's side is not cut.  The box follows the legs' centre slowly and is 0.42 m wide: a user coming in from the
+    side, the box still shifted that way, lands the far foot beyond its other side (the legs 0.5 m apart with their
+    widths), and the box took that leg away for half a second (synthetic ``absent_start``, eighty-third session).
+    Parts are split where the depth jumps by more than ``join_max_jump``, so what stands behind a leg or beside it
+    at another depth does not join it.  Needs ``center_max_shift`` > 0.  False: the box cuts (seed)."""
+    join_max_jump: float = 0.05
+    """Depth step (m) between neighbouring pixels at which ``join_edge_parts`` splits two parts."""
 
     def validate(self) -> None:
         """Raise ``ValueError`` naming the first invalid field."""
         if not (math.isfinite(self.center_max_shift) and self.center_max_shift >= 0):
             raise ValueError(f"roi.center_max_shift must be finite and >= 0, got {self.center_max_shift}")
+        if not (math.isfinite(self.join_max_jump) and self.join_max_jump > 0):
+            raise ValueError(f"roi.join_max_jump must be finite and > 0, got {self.join_max_jump}")
         if not (math.isfinite(self.center_deadband) and self.center_deadband >= 0):
             raise ValueError(f"roi.center_deadband must be finite and >= 0, got {self.center_deadband}")
         if not (0 <= self.center_gain <= 1):
@@ -1315,6 +1327,38 @@ class SegmenterConfig:
         self.hmm.validate()
 
 
+def joined_parts(inside: BoolArray, beyond: BoolArray, depth: NDArray[np.floating], *, max_jump: float) -> BoolArray:
+    """``(H, W)`` the pixels of ``beyond`` that are one part with pixels of ``inside``: 8-connected in the image
+    through ``inside | beyond``, no step between two neighbouring pixels of more than ``max_jump`` (m) in ``depth``
+    (both pixels of such a step are left out of the parts, which splits them there)."""
+    import cv2
+
+    out = np.zeros_like(beyond)
+    if not beyond.any() or not inside.any():
+        return out
+    full = inside | beyond
+    rows, cols = np.flatnonzero(full.any(axis=1)), np.flatnonzero(full.any(axis=0))
+    win = (slice(int(rows[0]), int(rows[-1]) + 1), slice(int(cols[0]), int(cols[-1]) + 1))  # the parts' bounding box
+    inside, beyond, part = inside[win], beyond[win], full[win]
+    z = np.asarray(depth[win], dtype=np.float32)
+    step = np.zeros_like(part)
+    with np.errstate(invalid="ignore"):
+        across = np.abs(z[:, 1:] - z[:, :-1]) > max_jump
+        down = np.abs(z[1:, :] - z[:-1, :]) > max_jump
+    across &= part[:, 1:] & part[:, :-1]
+    down &= part[1:, :] & part[:-1, :]
+    step[:, 1:] |= across
+    step[:, :-1] |= across
+    step[1:, :] |= down
+    step[:-1, :] |= down
+    n, labels = cv2.connectedComponents(np.ascontiguousarray(part & ~step).view(np.uint8), connectivity=8)
+    touching = np.zeros(n, dtype=bool)
+    touching[labels[inside]] = True
+    touching[0] = False
+    out[win] = beyond & touching[labels]
+    return out
+
+
 @dataclass(kw_only=True)
 class Segmentation:
     """Result of :meth:`Segmenter.process` for one frame."""
@@ -1599,6 +1643,8 @@ class Segmenter:
             # the wider band the auto-centred box can reach gets the same structure filters as the box; the
             # centring measures the legs there, so a leg the box cuts does not pull the box further off it
             reach = None if in_reach is None else cand_nf & in_reach
+        join = roi.join_edge_parts and reach is not None and roi.center_max_shift > 0
+        in_box = mask.copy() if join else None  # the box's pixels before the structure filters take theirs
         n_static = 0
         if self.static is not None and reach is not None:
             # the previous frame's foreground (what the tracker got) showed no legs: see learn_without_legs
@@ -1617,6 +1663,10 @@ class Segmenter:
                 # coarser (a quarter of the work): this band only feeds the centring's percentiles
                 reach &= ~thin_parts(reach.reshape(shape), z, fx=fx, fy=fy, min_width=cfg.min_part_width,
                                      stride=4).reshape(-1)
+        if join:
+            assert reach is not None and in_box is not None
+            mask |= joined_parts(mask.reshape(shape), (reach & ~in_box).reshape(shape), z,
+                                 max_jump=roi.join_max_jump).reshape(-1)
         if self.hmm is not None and floor.valid and xw is not None and yw is not None and h is not None:
             idx = np.flatnonzero(mask)
             cells = self.hmm.cell_index_xyz(xw[idx], yw[idx], h[idx])
