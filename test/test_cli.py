@@ -143,11 +143,13 @@ def test_every_subcommand_has_help() -> None:
         assert res.returncode == 0 and "usage" in res.stdout.lower(), sub
 
 
-def test_cli_limits_blas_threads_unless_the_user_chose() -> None:
-    """numpy's BLAS runs single-threaded in our processes (node children inherit it); a user value wins."""
+@pytest.mark.parametrize("module", ["walker_gait.cli", "walker_gait.bench.sweep"])
+def test_entry_points_limit_blas_threads_unless_the_user_chose(module: str) -> None:
+    """numpy's BLAS runs single-threaded in our processes (node children inherit it), the CLI's and the bench's run
+    directly (``python -m walker_gait.bench.sweep``: two jobs' threads spun against each other); a user value wins."""
     import os
 
-    code = ("import walker_gait.cli, os, numpy; "
+    code = (f"import {module}, os, numpy; "
             "print(os.environ['OMP_NUM_THREADS'], os.environ['OPENBLAS_NUM_THREADS'])")
     env = {k: v for k, v in os.environ.items() if k not in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS")}
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, check=True)

@@ -370,19 +370,3 @@ def test_real_session_and_cli(tmp_path: Path, capsys: pytest.CaptureFixture[str]
     assert "| heel err cm |" in capsys.readouterr().out
     assert sweep.main(["--compare", str(tmp_path / "missing")]) == 2
 
-
-def test_the_bench_limits_blas_threads_unless_the_user_chose() -> None:
-    """Run directly (``python -m walker_gait.bench.sweep``), the bench measures with numpy's BLAS on one thread as the
-    CLI runs; a user's own value wins."""
-    import os
-    import subprocess
-    import sys
-
-    code = ("import walker_gait.bench.sweep, os, numpy; "
-            "print(os.environ['OMP_NUM_THREADS'], os.environ['OPENBLAS_NUM_THREADS'])")
-    env = {k: v for k, v in os.environ.items() if k not in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS")}
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, check=True)
-    assert out.stdout.split() == ["1", "1"]
-    env["OPENBLAS_NUM_THREADS"] = "2"
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, check=True)
-    assert out.stdout.split() == ["1", "2"]
