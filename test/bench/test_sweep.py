@@ -369,4 +369,3 @@ def test_real_session_and_cli(tmp_path: Path, capsys: pytest.CaptureFixture[str]
     assert sweep.main(["--compare", str(tmp_path / "a")]) == 0
     assert "| heel err cm |" in capsys.readouterr().out
     assert sweep.main(["--compare", str(tmp_path / "missing")]) == 2
-
