@@ -600,6 +600,7 @@ class FrameProcessor:
         if self._two_way and self._fwd:
             from walker_gait.core.gait import GaitAnalyzer
             from walker_gait.core.smoothing import (
+                START_FRAMES,
                 check_against_passes,
                 merge_passes,
                 reported_poses,
@@ -627,8 +628,13 @@ class FrameProcessor:
                                    tracker_ms=np.array([m[2] for m in run], dtype=np.float64), scoring_ms=np.zeros(n))
                          for run in more_fwd]
             # a track starts where both feet have been seen, whichever way it was tracked (the forward tracker waits
-            # for two legs; backwards, an arriving user's first frames end the track)
-            backwards = [wait_for_both_feet(b, other=f) for b, f in zip(backward, forwards, strict=True)]
+            # for two legs; backwards, an arriving user's first frames end the track).  A segmenter that joins a leg
+            # across the region of interest's side shows an arriving user's far foot sooner, and the backward pass's
+            # model feet, both on the one foot in view, are each seen there: both must be seen on one frame, over
+            # three (DEVELOPERS.md, eighty-fourth session)
+            strict = bool(self.options.segmenter.roi.join_edge_parts)
+            backwards = [wait_for_both_feet(b, other=f, frames=3 if strict else START_FRAMES, at_once=strict)
+                         for b, f in zip(backward, forwards, strict=True)]
             # forward and backward run by run (ties in the merge go to the first: the forward pass of run 0)
             passes = [p for pair in zip(forwards, backwards, strict=True) for p in pair]
             merged = merge_passes(passes)

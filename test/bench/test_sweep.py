@@ -369,3 +369,33 @@ def test_real_session_and_cli(tmp_path: Path, capsys: pytest.CaptureFixture[str]
     assert sweep.main(["--compare", str(tmp_path / "a")]) == 0
     assert "| heel err cm |" in capsys.readouterr().out
     assert sweep.main(["--compare", str(tmp_path / "missing")]) == 2
+
+
+def test_roi_override_reaches_the_segmenter_and_bad_ones_are_refused(monkeypatch: pytest.MonkeyPatch,
+                                                                      capsys: pytest.CaptureFixture[str]) -> None:
+    """``--roi-override`` (``run_session``'s and ``run_pipeline``'s ``roi``): the pipeline's segmenter gets the region
+    of interest with those fields changed, the rest its defaults; a field it lacks or a value it refuses exits 2."""
+    import walker_gait.pipeline as pipeline
+    from walker_gait.bench.endtoend import run_pipeline
+    from walker_gait.core.segmentation import RoiConfig
+
+    seen = []
+
+    class Stop(Exception):
+        pass
+
+    def capture(options: pipeline.PipelineOptions) -> None:
+        seen.append(options)
+        raise Stop
+
+    monkeypatch.setattr(pipeline, "FrameProcessor", capture)
+    for roi in ({"join_edge_parts": True, "join_max_jump": 0.08}, None):
+        with pytest.raises(Stop):
+            run_pipeline(None, None, roi=roi)  # type: ignore[arg-type]
+    changed, default = (o.segmenter.roi for o in seen)
+    assert changed == RoiConfig(join_edge_parts=True, join_max_jump=0.08) and default == RoiConfig()
+    assert changed != default
+    for bad, word in (('{"no_such_field": 1}', "no_such_field"), ('{"join_max_jump": -1}', "join_max_jump"),
+                      ('[1]', "JSON object"), ("{", "roi-override")):
+        assert sweep.main(["--out", "unused", "--roi-override", bad]) == 2
+        assert word in capsys.readouterr().err

@@ -643,6 +643,34 @@ def test_a_leg_across_the_side_of_the_box_is_kept_whole(join: bool) -> None:
     assert (res.mask & apart).sum() == 0
 
 
+def test_joined_centred_only_is_what_the_shifted_box_left_of_the_centred_one() -> None:
+    """``roi.join_centred_only``: a box centred on the walker joins nothing (the leg across its side is cut as
+    without the join); a box shifted 5 cm to the user's left (walker y +0.05) keeps a leg across its right side up to
+    where the centred box's side stands (y -0.175), not beyond it, where the whole reach band joins it all."""
+    rng = np.random.default_rng(14)
+    scene = make_synthetic_scene(legs=((0.9, 0.10), (0.9, -0.16)), leg_radius=0.05, bar=None, posts=())
+    depth = noisy_depth(scene, rng, dropout=0.0, edge_dropout=0.0)
+    leg = (scene.labels == LABEL_LEG) & np.isfinite(depth) & (scene.height > 0.05)
+    y = scene.walker[..., 1]
+    crossing = leg & (y < -0.09) & (y > -0.22)
+    within, outside = crossing & (y > -0.17) & (y < -0.13), crossing & (y < -0.18)
+    assert within.sum() > 200 and outside.sum() > 100
+
+    def segment(shift: float, **roi: bool) -> np.ndarray:
+        seg = Segmenter(SegmenterConfig(roi=RoiConfig(**{"join_edge_parts": True, **roi})), rng=np.random.default_rng(1))
+        seg.roi_shift = shift
+        return seg.process(depth, PROJ.points(depth)).mask
+
+    cut = segment(0.05, join_edge_parts=False)
+    assert (cut & within).sum() < 0.05 * within.sum()  # the shifted box's side at y -0.125 cuts the leg
+    centred_only = segment(0.05, join_centred_only=True)
+    assert (centred_only & within).sum() >= 0.95 * within.sum() and not (centred_only & outside).any()
+    everything = segment(0.05, join_centred_only=False)
+    assert (everything & outside).sum() >= 0.95 * outside.sum()
+    # centred: the join adds nothing
+    np.testing.assert_array_equal(segment(0.0, join_centred_only=True), segment(0.0, join_edge_parts=False))
+
+
 # --------------------------------------------------------------------------- background model (seed)
 
 

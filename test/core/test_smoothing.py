@@ -336,6 +336,46 @@ def test_a_track_starts_where_both_feet_have_been_seen() -> None:
     assert wait_for_both_feet(plain) is plain
     with pytest.raises(ValueError, match="frames"):
         wait_for_both_feet(track, other=plain)
+    with pytest.raises(ValueError, match="frames must be"):
+        wait_for_both_feet(track, frames=0)
+
+
+def test_at_once_a_track_starts_where_both_feet_are_seen_on_one_frame() -> None:
+    """``at_once``: each foot seen on another frame is not enough (a model foot moved onto the one foot in view)."""
+    empty = LegPose(stamp=0.0, points=np.full((2, 5, 3), np.nan), status=TrackStatus.NO_USER, confidence=0.0)
+    feet = [None, (0.0, 0.9), (0.3, 0.9), (0.6, 0.2), (0.6, 0.7), (0.1, 0.1), None, (0.9, 0.0), (0.0, 0.7),
+            (0.0, 0.0)]
+    poses = [replace(empty, stamp=0.1 * i) if f is None else _seen(0.1 * i, *f) for i, f in enumerate(feet)]
+    track = _track(poses, np.array([-np.inf if f is None else 1.0 for f in feet]))
+
+    def have(out: PassTrack) -> list[bool]:
+        return [bool(np.all(np.isfinite(p.points))) for p in out.poses]
+
+    # both seen at once on frame 4 (each alone before; without at_once the track would start on frame 3), a foot
+    # hidden again later (frame 5) keeps the track; the second track sees each foot, never both at once
+    assert have(wait_for_both_feet(track, at_once=True)) == [False] * 4 + [True, True] + [False] * 4
+    assert have(wait_for_both_feet(track)) == [False] * 3 + [True, True, True, False, False, True, True]
+    other = _track([replace(empty, stamp=0.1 * i) if i != 2 else _pose(0.2, 0.0) for i in range(10)], np.zeros(10))
+    assert have(wait_for_both_feet(track, other=other, at_once=True))[:5] == [False, False, True, False, True]
+
+
+def test_a_foot_is_seen_where_its_visibility_holds_over_the_next_frames() -> None:
+    """One frame over ``min_visibility`` between frames under it (a model foot beside the one foot in view, over its
+    edge) does not count; a foot seen on a frame and over the next ``frames`` frames counts from that frame, and a
+    track's last frames average over what the track has."""
+    left = [0.0, 0.55, 0.25, 0.58, 0.3, 0.0, 0.6, 0.7, 0.5, 0.9, 0.0]
+    poses = [_seen(0.1 * i, v, 1.0) for i, v in enumerate(left)]
+    track = _track(poses, np.ones(len(left)))
+    have = [bool(np.all(np.isfinite(p.points))) for p in wait_for_both_feet(track, min_visibility=0.5, frames=3).poses]
+    assert have == [False] * 6 + [True] * 5  # frame 6 starts (0.6, 0.7, 0.5); frames 1 and 3 alone never do
+    one = [bool(np.all(np.isfinite(p.points))) for p in wait_for_both_feet(track, min_visibility=0.5, frames=1).poses]
+    assert one == [False] + [True] * 10
+    # a frame the foot is not seen on does not start it, whatever the frames after it show
+    late = _track([_seen(0.0, 0.0, 1.0), _seen(0.1, 0.9, 1.0), _seen(0.2, 1.0, 1.0)], np.ones(3))
+    assert [bool(np.all(np.isfinite(p.points))) for p in wait_for_both_feet(late, frames=3).poses] == \
+        [False, True, True]
+    short = _track([_seen(0.0, 0.0, 1.0), _seen(0.1, 0.9, 1.0)], np.ones(2))  # a two-frame track: its last frame
+    assert [bool(np.all(np.isfinite(p.points))) for p in wait_for_both_feet(short, frames=3).poses] == [False, True]
 
 
 def _walking(n: int, hidden: dict[int, range], *, dt: float = 1 / 30) -> tuple[list[LegPose], np.ndarray]:

@@ -268,13 +268,15 @@ def true_leg_length(session: Any) -> float:
 
 def run_pipeline(session: Any, rendered: Rendered, *, preset: str = "default", cue: str | None = None, seed: int = 0,
                  max_frames: int | None = None, overrides: dict[str, Any] | None = None,
-                 passes: str = "both", leg_length_m: float = 0.0, tracker_runs: int | None = None) -> PipelineRun:
+                 passes: str = "both", leg_length_m: float = 0.0, tracker_runs: int | None = None,
+                 roi: dict[str, Any] | None = None) -> PipelineRun:
     """The offline pipeline (``FrameProcessor``) on a session's rendered frames, as ``walker-gait process``
-    runs it; tracker ``preset`` with ``overrides`` (``TrackerConfig`` fields) and ``cue``; ``passes``,
-    ``leg_length_m`` and ``tracker_runs`` (None: the default) as ``PipelineOptions``' (``forward``: the live graph's
-    one pass)."""
+    runs it; tracker ``preset`` with ``overrides`` (``TrackerConfig`` fields) and ``cue``; the segmenter's
+    ``RoiConfig`` with ``roi`` (its fields); ``passes``, ``leg_length_m`` and ``tracker_runs`` (None: the default)
+    as ``PipelineOptions``' (``forward``: the live graph's one pass)."""
     import dataclasses
 
+    from walker_gait.core.segmentation import RoiConfig, SegmenterConfig
     from walker_gait.core.tracker import preset as tracker_preset
     from walker_gait.pipeline import FrameProcessor, PipelineOptions
 
@@ -284,8 +286,10 @@ def run_pipeline(session: Any, rendered: Rendered, *, preset: str = "default", c
         changes["cue"] = cue
     if changes:
         tracker = dataclasses.replace(tracker, **changes)
+    segmenter = SegmenterConfig(roi=RoiConfig(**roi)) if roi else None
     proc = FrameProcessor(PipelineOptions(preset=preset, tracker=tracker, seed=seed, write_mcap=False,
                                           write_report=False, passes=passes, leg_length_m=leg_length_m,
+                                          segmenter=segmenter,
                                           **({} if tracker_runs is None else {"tracker_runs": tracker_runs})))
     proc.set_camera_info(SimpleNamespace(**session.camera_info()))
     n = len(rendered.frames) if max_frames is None else min(len(rendered.frames), max_frames)

@@ -9,7 +9,8 @@ the same way.
 
 ``python -m walker_gait.bench.sweep --out out/sweep/base`` then, after a change,
 ``python -m walker_gait.bench.sweep --out out/sweep/new --override '{"elliptic_foot": false}'`` and
-``python -m walker_gait.bench.sweep --compare out/sweep/base out/sweep/new``.
+``python -m walker_gait.bench.sweep --compare out/sweep/base out/sweep/new`` (``--roi-override`` changes the
+segmenter's region of interest the same way: ``'{"join_edge_parts": true}'``).
 
 Every sweep also keeps its runs, tracked poses and the pipeline's floors included, in ``runs.pkl``; a change
 to the gait analyzer alone is then judged on those same poses in seconds, without tracking again:
@@ -186,10 +187,11 @@ def _rendered(session: Any, cache: Path | None, name: str) -> Any:
 def run_session(scenario: str, seed: int, *, duration: float, tracker_seeds: tuple[int, ...],
                 overrides: dict[str, Any] | None = None, cache: Path | None = None,
                 spec: dict[str, Any] | None = None, passes: str = "both",
-                tracker_runs: int | None = None) -> list[SessionRun]:
+                tracker_runs: int | None = None, roi: dict[str, Any] | None = None) -> list[SessionRun]:
     """Generate (or load the cached render of) one session and track it once per tracker seed; ``spec``:
     ``SessionSpec`` overrides of the scenario's preset (other subjects, cameras, mounts); ``passes`` and
-    ``tracker_runs`` (None: the default) as ``PipelineOptions``'."""
+    ``tracker_runs`` (None: the default) as ``PipelineOptions``'; ``roi``: the segmenter's ``RoiConfig`` fields
+    changed."""
     from walker_gait.bench.endtoend import _gt_as_steps, present_frames, run_pipeline, trackable_frames
     from walker_gait.bench.gait import match_steps
 
@@ -203,7 +205,8 @@ def run_session(scenario: str, seed: int, *, duration: float, tracker_seeds: tup
     floor = session.params.mount.floor_plane()
     out = []
     for ts in tracker_seeds:
-        run = run_pipeline(session, rendered, seed=ts, overrides=overrides, passes=passes, tracker_runs=tracker_runs)
+        run = run_pipeline(session, rendered, seed=ts, overrides=overrides, passes=passes, tracker_runs=tracker_runs,
+                           roi=roi)
         pairs, _, _ = match_steps(gt, run.steps)
         out.append(SessionRun(
             key=f"{scenario}:{seed}", tracker_seed=ts, stamps=stamps,
@@ -613,10 +616,10 @@ def format_oracle(rep: dict[str, Any]) -> str:
 
 
 def _work(args: tuple[str, int, float, tuple[int, ...], dict[str, Any], Path | None, dict[str, Any], str,
-                      int | None]) -> list[SessionRun]:
-    scenario, seed, duration, seeds, overrides, cache, spec, passes, tracker_runs = args
+                      int | None, dict[str, Any]]) -> list[SessionRun]:
+    scenario, seed, duration, seeds, overrides, cache, spec, passes, tracker_runs, roi = args
     return run_session(scenario, seed, duration=duration, tracker_seeds=seeds, overrides=overrides, cache=cache,
-                       spec=spec, passes=passes, tracker_runs=tracker_runs)
+                       spec=spec, passes=passes, tracker_runs=tracker_runs, roi=roi)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -624,6 +627,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--out", type=Path, help="output directory (summary.json, table.md)")
     ap.add_argument("--compare", type=Path, nargs="+", metavar="DIR", help="print the summaries of earlier sweeps side by side")
     ap.add_argument("--override", default="{}", help="TrackerConfig field overrides of the default preset, JSON")
+    ap.add_argument("--roi-override", default="{}",
+                    help="the segmenter's RoiConfig field overrides, JSON (e.g. '{\"join_edge_parts\": true}')")
     ap.add_argument("--spec-override", default="{}",
                     help="SessionSpec field overrides for every session, JSON (e.g. other subjects, mounts, cameras: "
                          "'{\"body_scale\": [1.12, 1.2], \"cam_height\": [0.65, 0.75]}'); rendered separately in the cache")
@@ -674,6 +679,16 @@ def main(argv: list[str] | None = None) -> int:
         print(f"sweep: bad --override {a.override!r}: {exc}", file=sys.stderr)
         return 2
     try:
+        from walker_gait.core.segmentation import RoiConfig
+
+        roi = json.loads(a.roi_override)
+        if not isinstance(roi, dict):
+            raise TypeError("not a JSON object")
+        RoiConfig(**roi).validate()
+    except (json.JSONDecodeError, TypeError, ValueError) as exc:
+        print(f"sweep: bad --roi-override {a.roi_override!r}: {exc}", file=sys.stderr)
+        return 2
+    try:
         spec = spec_overrides(a.spec_override)
     except ValueError as exc:
         print(f"sweep: bad --spec-override {a.spec_override!r}: {exc}", file=sys.stderr)
@@ -686,7 +701,7 @@ def main(argv: list[str] | None = None) -> int:
     except ValueError as exc:
         print(f"sweep: {exc}", file=sys.stderr)
         return 2
-    jobs = [(sc, sd, a.duration, tuple(a.tracker_seeds), overrides, a.cache, spec, a.passes, a.tracker_runs)
+    jobs = [(sc, sd, a.duration, tuple(a.tracker_seeds), overrides, a.cache, spec, a.passes, a.tracker_runs, roi)
             for sc, sd in sessions]
     t0 = time.perf_counter()
     runs: list[SessionRun] = []
@@ -695,7 +710,7 @@ def main(argv: list[str] | None = None) -> int:
     with ProcessPoolExecutor(max_workers=max(1, a.jobs)) as pool:
         for res in tqdm(pool.map(_work, jobs), total=len(jobs), desc="sessions", unit="session", file=sys.stderr):
             runs.extend(res)
-    config = {"override": overrides, "spec_override": spec, "scenarios": a.scenarios, "per_scenario": a.per_scenario,
+    config = {"override": overrides, "roi_override": roi, "spec_override": spec, "scenarios": a.scenarios, "per_scenario": a.per_scenario,
               "base_seed": a.base_seed, "tracker_seeds": a.tracker_seeds, "duration": a.duration, "passes": a.passes,
               "tracker_runs": a.tracker_runs,
               "seconds": round(time.perf_counter() - t0, 1)}

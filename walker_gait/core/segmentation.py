@@ -676,9 +676,18 @@ class RoiConfig:
     ``center_max_shift`` > 0.  Off by default: on four synthetic sweeps it put the heels 0.01-0.13 cm nearer and the
     frames over 10 cm at the walker 0.65/0.55/0.37/0.45 -> 0.09/0.12/0.25/0.32 %, but a user walking in was then
     reported from the backward pass 21 cm off for 8 frames (``test_an_arriving_user_is_not_reported_before_...``)
-    and set A's step width was worse (eighty-third session, DEVELOPERS.md).  False: the box cuts (seed)."""
+    and set A's step width was worse (eighty-third session, DEVELOPERS.md).  With the backward pass waiting for both
+    feet seen at once over three frames (``smoothing.wait_for_both_feet(frames=3, at_once=True)``) the arrival is
+    clean, but the step width stays worse where the box stands centred (sets A / C, ``slow_elderly`` 1.02 / 1.30 ->
+    1.43 / 1.66 cm, ``normal`` 0.81 / 0.54 -> 0.91 / 0.62; eighty-fourth session).  False: the box cuts (seed)."""
     join_max_jump: float = 0.05
     """Depth step (m) between neighbouring pixels at which ``join_edge_parts`` splits two parts."""
+    join_centred_only: bool = False
+    """With ``join_edge_parts``: join only foreground the box would hold centred on the walker (no shift) that the
+    shifted box has left out: nothing while the box stands centred, where the joined band beyond both sides moved the
+    measured feet outwards (step width, eighty-fourth session), and the band the box uncovered as it moved towards one
+    side (the far leg of a user walking in from that side, a camera mounted off the centre line).  False: the whole
+    band the auto-centred box can reach either way."""
 
     def validate(self) -> None:
         """Raise ``ValueError`` naming the first invalid field."""
@@ -1668,8 +1677,13 @@ class Segmenter:
                                      stride=4).reshape(-1)
         if join:
             assert reach is not None and in_box is not None
-            mask |= joined_parts(mask.reshape(shape), (reach & ~in_box).reshape(shape), z,
-                                 max_jump=roi.join_max_jump).reshape(-1)
+            beyond = reach & ~in_box
+            if roi.join_centred_only:
+                assert yw is not None
+                beyond &= (yw >= -roi.right) & (yw <= roi.left) if self.roi_shift != 0.0 else False
+            if beyond.any():
+                mask |= joined_parts(mask.reshape(shape), beyond.reshape(shape), z,
+                                     max_jump=roi.join_max_jump).reshape(-1)
         if self.hmm is not None and floor.valid and xw is not None and yw is not None and h is not None:
             idx = np.flatnonzero(mask)
             cells = self.hmm.cell_index_xyz(xw[idx], yw[idx], h[idx])

@@ -120,7 +120,14 @@ still counts towards the cadence while its length and width stay out of the mean
 
 START_VISIBILITY = 0.5
 """Visible share of a model foot (the tracker's ``show_above``) from which :func:`wait_for_both_feet` counts it as
-seen."""
+seen ..."""
+START_FRAMES = 1
+"""... on average over this many consecutive frames (one: that frame's share alone).  Three, with ``at_once``, is what
+a segmenter that joins a leg across the region of interest's side (``RoiConfig.join_edge_parts``) needs: it shows the
+far foot of a user walking in sooner, and one frame's share at 0.55 of a model foot beside the one foot in view, or
+each model foot seen on that foot at another time, let a backward pass report a leg 15-40 cm off for 5-8 frames
+(eighty-fourth session, DEVELOPERS.md); with the segmenter's default those settings cost frames the backward pass
+alone tracks well (set A: frames over 10 cm at the walker 0.37 -> 0.55 %)."""
 
 BRIDGE_MAX_S = 1.0
 """Longest gap (s) over which :func:`bridge_hidden_legs` bridges a hidden leg."""
@@ -343,11 +350,15 @@ def best_path(scores: FloatArray, points: FloatArray, *, switch_cost: float = SW
 
 
 def wait_for_both_feet(track: PassTrack, *, other: PassTrack | None = None,
-                       min_visibility: float = START_VISIBILITY) -> PassTrack:
+                       min_visibility: float = START_VISIBILITY, frames: int = START_FRAMES,
+                       at_once: bool = False) -> PassTrack:
     """``track`` without the poses it gave, at the start (recording order) of each of its tracks, before both model
-    feet had been seen: the frames before the one by which each foot's visibility has reached ``min_visibility``
-    get no pose (``NO_USER``, score ``-inf``), except where ``other`` (the other pass) has a pose, which leaves the
-    merge both to choose from.
+    feet had been seen: a foot is seen from the first frame where its visibility, and its average with that of the
+    track's next ``frames - 1`` frames (those the track has), reach ``min_visibility``; with ``at_once`` both feet
+    must be seen so on the same frame (each seen at another time is not enough: a model foot moved onto the one foot
+    in view is seen there too, the other model foot off over nothing).  The frames before that get no pose
+    (``NO_USER``, score ``-inf``), except where ``other`` (the other pass) has a pose, which leaves the merge both
+    to choose from.
 
     The pipeline applies it to the backward pass.  Run forwards, the tracker starts a track only once its foreground
     shows two legs (``TrackerConfig.single_leg_wait_s``); run backwards, it meets a user's arrival at the *end* of
@@ -360,19 +371,27 @@ def wait_for_both_feet(track: PassTrack, *, other: PassTrack | None = None,
     n = len(track.poses)
     if other is not None and len(other.poses) != n:
         raise ValueError(f"the passes cover {n} and {len(other.poses)} frames")
+    if frames < 1:
+        raise ValueError(f"frames must be >= 1, got {frames}")
+    has = np.array([bool(np.all(np.isfinite(p.points))) for p in track.poses], dtype=bool)
+    feet = np.array([np.ones(2) if p.visibility is None else np.asarray(p.visibility, dtype=np.float64)[:, 2]
+                     for p in track.poses]).reshape(n, 2)
     keep = np.ones(n, dtype=bool)
-    seen = np.zeros(2, dtype=bool)
-    inside = False
-    for t, pose in enumerate(track.poses):
-        if not np.all(np.isfinite(pose.points)):
-            inside = False
-            continue
-        if not inside:
-            inside, seen[:] = True, False
-        if not seen.all():
-            vis = pose.visibility
-            seen |= True if vis is None else np.asarray(vis)[:, 2] >= min_visibility
-            keep[t] = bool(seen.all()) or (other is not None and bool(np.all(np.isfinite(other.poses[t].points))))
+    edges = np.flatnonzero(np.diff(np.concatenate([[0], has.astype(np.int8), [0]])))
+    for start, stop in zip(edges[::2], edges[1::2], strict=True):  # each track: frames start .. stop - 1
+        vis = feet[start:stop]
+        csum = np.concatenate([np.zeros((1, 2)), np.cumsum(vis, axis=0)])
+        ends = np.minimum(np.arange(len(vis)) + frames, len(vis))
+        ahead = (csum[ends] - csum[:-1]) / (ends - np.arange(len(vis)))[:, None]  # mean over the window ahead
+        seen = (ahead >= min_visibility) & (vis >= min_visibility)
+        if at_once:
+            both = seen.all(axis=1)
+            first = int(np.argmax(both)) if both.any() else len(vis)
+        else:
+            first = max((int(np.argmax(seen[:, leg])) if seen[:, leg].any() else len(vis)) for leg in (0, 1))
+        keep[start:start + first] = False
+    if other is not None:
+        keep |= np.array([bool(np.all(np.isfinite(p.points))) for p in other.poses], dtype=bool) & has
     if keep.all():
         return track
     poses = [p if keep[t] else LegPose.no_user(p.stamp) for t, p in enumerate(track.poses)]
