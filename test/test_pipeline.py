@@ -318,6 +318,16 @@ def _forward_pass_and_frames(path: Path, *, tracker_runs: int = 1) -> tuple[Any,
     return proc, prep, frames
 
 
+def test_the_backward_pass_waits_for_both_feet_at_once_only_with_the_join_across_either_side() -> None:
+    from walker_gait.core.segmentation import RoiConfig
+    from walker_gait.pipeline import PipelineOptions, strict_backward_wait
+
+    assert not strict_backward_wait(PipelineOptions().segmenter.roi)  # the default: the box cuts
+    assert strict_backward_wait(RoiConfig(join_edge_parts=True))
+    assert not strict_backward_wait(RoiConfig(join_edge_parts=True, join_centred_only=True))
+    assert not strict_backward_wait(RoiConfig(join_centred_only=True))  # nothing joined
+
+
 def test_an_arriving_user_is_not_reported_before_the_backward_pass_has_seen_both_feet(tmp_path: Path) -> None:
     """A user walking in from the side: the forward pass starts once it sees two legs, the backward pass ends its
     track there and, alone, carried a leg it no longer saw (both model legs on the foot in view, 20-70 cm off).

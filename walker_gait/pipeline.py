@@ -327,6 +327,18 @@ class Finished:
     exchanged_frames: int | None = None  # "both": frames whose pass's legs the merge took exchanged back (merge_passes)
 
 
+def strict_backward_wait(roi: Any) -> bool:
+    """Whether the backward pass's tracks wait for both feet seen on one frame, over three
+    (:func:`walker_gait.core.smoothing.wait_for_both_feet` ``frames=3, at_once=True``) instead of each foot seen
+    once: with a region of interest (``RoiConfig``) that joins a leg across either side of the box
+    (``join_edge_parts`` without ``join_centred_only``), which shows an arriving user's far foot sooner while the
+    backward pass still has both model feet on the one foot in view, each seen there in turn (a leg reported 15-40 cm
+    off for 5-8 frames).  The narrower join (``join_centred_only``) did better with the plain wait: the strict one
+    dropped about 20 frames of two sweep sessions' arrivals that the backward pass alone tracked within 10 cm
+    (DEVELOPERS.md, eighty-fourth session)."""
+    return bool(roi.join_edge_parts) and not bool(roi.join_centred_only)
+
+
 class FrameProcessor:
     """All stages for one camera, frame by frame (the offline twin of the live node graph).
 
@@ -628,11 +640,8 @@ class FrameProcessor:
                                    tracker_ms=np.array([m[2] for m in run], dtype=np.float64), scoring_ms=np.zeros(n))
                          for run in more_fwd]
             # a track starts where both feet have been seen, whichever way it was tracked (the forward tracker waits
-            # for two legs; backwards, an arriving user's first frames end the track).  A segmenter that joins a leg
-            # across the region of interest's side shows an arriving user's far foot sooner, and the backward pass's
-            # model feet, both on the one foot in view, are each seen there: both must be seen on one frame, over
-            # three (DEVELOPERS.md, eighty-fourth session)
-            strict = bool(self.options.segmenter.roi.join_edge_parts)
+            # for two legs; backwards, an arriving user's first frames end the track)
+            strict = strict_backward_wait(self.options.segmenter.roi)
             backwards = [wait_for_both_feet(b, other=f, frames=3 if strict else START_FRAMES, at_once=strict)
                          for b, f in zip(backward, forwards, strict=True)]
             # forward and backward run by run (ties in the merge go to the first: the forward pass of run 0)

@@ -679,15 +679,21 @@ class RoiConfig:
     and set A's step width was worse (eighty-third session, DEVELOPERS.md).  With the backward pass waiting for both
     feet seen at once over three frames (``smoothing.wait_for_both_feet(frames=3, at_once=True)``) the arrival is
     clean, but the step width stays worse where the box stands centred (sets A / C, ``slow_elderly`` 1.02 / 1.30 ->
-    1.43 / 1.66 cm, ``normal`` 0.81 / 0.54 -> 0.91 / 0.62; eighty-fourth session).  False: the box cuts (seed)."""
+    1.43 / 1.66 cm, ``normal`` 0.81 / 0.54 -> 0.91 / 0.62; eighty-fourth session): see ``join_centred_only``.  The
+    pipeline's backward pass waits for both feet at once with this on (``pipeline.strict_backward_wait``).  False:
+    the box cuts (seed)."""
     join_max_jump: float = 0.05
     """Depth step (m) between neighbouring pixels at which ``join_edge_parts`` splits two parts."""
     join_centred_only: bool = False
     """With ``join_edge_parts``: join only foreground the box would hold centred on the walker (no shift) that the
     shifted box has left out: nothing while the box stands centred, where the joined band beyond both sides moved the
     measured feet outwards (step width, eighty-fourth session), and the band the box uncovered as it moved towards one
-    side (the far leg of a user walking in from that side, a camera mounted off the centre line).  False: the whole
-    band the auto-centred box can reach either way."""
+    side (the far leg of a user walking in from that side, a camera mounted off the centre line).  Not the default:
+    on sets C / A, tracker seeds 0 / 1, the heels 2.64 / 2.52 / 2.43 / 2.47 -> 2.60 / 2.51 / 2.38 / 2.56 cm, the
+    frames over 10 cm at the walker 0.65 / 0.55 / 0.37 / 0.45 -> 0.25 / 0.25 / 0.41 / 0.73 %, the width unchanged
+    where the box stayed centred, but set A seed 1 swapped legs in two runs (0.28 % of its frames; none before) and
+    ``baggy_trousers:123`` went 20 frames off (DEVELOPERS.md, eighty-fourth session).  False: the whole band the
+    auto-centred box can reach either way."""
 
     def validate(self) -> None:
         """Raise ``ValueError`` naming the first invalid field."""
@@ -1678,9 +1684,9 @@ class Segmenter:
         if join:
             assert reach is not None and in_box is not None
             beyond = reach & ~in_box
-            if roi.join_centred_only:
+            if roi.join_centred_only:  # what the centred box holds: nothing more while the box stands centred
                 assert yw is not None
-                beyond &= (yw >= -roi.right) & (yw <= roi.left) if self.roi_shift != 0.0 else False
+                beyond &= (yw >= -roi.right) & (yw <= roi.left)
             if beyond.any():
                 mask |= joined_parts(mask.reshape(shape), beyond.reshape(shape), z,
                                      max_jump=roi.join_max_jump).reshape(-1)
