@@ -45,7 +45,7 @@ from typing import Protocol, TypeVar
 import numpy as np
 from numpy.typing import NDArray
 
-from walker_gait.core.pelvis import moved_pose, place_poses, with_points
+from walker_gait.core.pelvis import _runs, moved_pose, place_poses, with_points
 from walker_gait.core.types import (
     ANKLE,
     HEEL,
@@ -373,12 +373,11 @@ def wait_for_both_feet(track: PassTrack, *, other: PassTrack | None = None,
         raise ValueError(f"the passes cover {n} and {len(other.poses)} frames")
     if frames < 1:
         raise ValueError(f"frames must be >= 1, got {frames}")
-    has = np.array([bool(np.all(np.isfinite(p.points))) for p in track.poses], dtype=bool)
+    has = np.array([_has_points(p) for p in track.poses], dtype=bool)
     feet = np.array([np.ones(2) if p.visibility is None else np.asarray(p.visibility, dtype=np.float64)[:, 2]
                      for p in track.poses]).reshape(n, 2)
     keep = np.ones(n, dtype=bool)
-    edges = np.flatnonzero(np.diff(np.concatenate([[0], has.astype(np.int8), [0]])))
-    for start, stop in zip(edges[::2], edges[1::2], strict=True):  # each track: frames start .. stop - 1
+    for start, stop in _runs(has):  # each track: frames start .. stop - 1
         vis = feet[start:stop]
         csum = np.concatenate([np.zeros((1, 2)), np.cumsum(vis, axis=0)])
         ends = np.minimum(np.arange(len(vis)) + frames, len(vis))
@@ -391,7 +390,7 @@ def wait_for_both_feet(track: PassTrack, *, other: PassTrack | None = None,
             first = max((int(np.argmax(seen[:, leg])) if seen[:, leg].any() else len(vis)) for leg in (0, 1))
         keep[start:start + first] = False
     if other is not None:
-        keep |= np.array([bool(np.all(np.isfinite(p.points))) for p in other.poses], dtype=bool) & has
+        keep |= np.array([_has_points(p) for p in other.poses], dtype=bool) & has
     if keep.all():
         return track
     poses = [p if keep[t] else LegPose.no_user(p.stamp) for t, p in enumerate(track.poses)]
