@@ -557,6 +557,43 @@ def test_shoe_pitch_is_the_rise_less_the_flat_shoes() -> None:
     assert np.all(np.isnan(pv.shoe_pitch(pts[15:], rise[15:])[:, 0]))  # five flat frames: not calibrated
 
 
+def test_a_scattered_rise_that_follows_the_tracked_foot_through_its_swing_measures_its_pitch() -> None:
+    """A shoe's rise that scatters more than :data:`SHOE_RISE_MAD` over the flat frames (a lower-resolution camera's
+    fewer points) still measures the foot's pitch where, over the frames off the flat, the pitch it gives follows the
+    tracker's foot through the swing (:data:`SHOE_RISE_FOLLOW`); a trouser hem's slope, which does not, or too few
+    frames off the flat to judge (:data:`SHOE_RISE_FOLLOW_FRAMES`), leave it unmeasured."""
+    rng = np.random.default_rng(4)
+    n_flat, n_off = 40, 40
+    n = n_flat + n_off
+    true = np.concatenate([np.zeros(n_flat), np.radians(35.0) * np.sin(np.linspace(0.0, np.pi, n_off))])  # heel-up
+    tracked = 0.7 * true + np.radians(2.0) * rng.standard_normal(n) * (true > 0)  # the tracker's: flatter, noisy
+    pts = np.zeros((n, 2, 5, 3))
+    pts[:, :, TOE, 0] = 0.26 * np.cos(tracked)[:, None]
+    pts[:, :, HEEL, 2] = 0.26 * np.sin(tracked)[:, None]  # both feet alike; toes on the floor
+    off = pts[:, 0, HEEL, 2] >= pv.SHOE_FLAT_HEIGHT_M
+    assert not off[:n_flat].any() and off.sum() >= 30
+    noise = np.radians(1.5) * rng.standard_normal((n, 2))  # flat-frame scatter about 1 deg: over SHOE_RISE_MAD
+    rise = 0.3 + true[:, None] + noise
+    rise[:, 1] = 0.3 + noise[:, 1]  # the right foot's: a hem's slope that does not turn with the foot
+    flat_mad = np.median(np.abs(rise[:n_flat, 0] - np.median(rise[:n_flat, 0])))
+    assert flat_mad > pv.SHOE_RISE_MAD
+    got = pv.shoe_pitch(pts, rise)
+    np.testing.assert_allclose(got[:, 0], np.median(rise[~off, 0]) - rise[:, 0])
+    assert np.mean(np.abs(got[n_flat:, 0] + true[n_flat:])) < np.mean(np.abs(tracked - true)[n_flat:])
+    assert np.all(np.isnan(got[:, 1]))
+    short = n_flat + pv.SHOE_RISE_FOLLOW_FRAMES - 1  # the swing's first frames only: too few to judge
+    assert np.all(np.isnan(pv.shoe_pitch(pts[:short], rise[:short])[:, 0]))
+    # live, frame by frame: measured once the track has had enough frames off the flat to judge
+    live = pv.LivePelvis()
+    judged = [live._shoe_frame(pts[i], rise[i], np.full(2, np.nan))[0] for i in range(n)]
+    left = np.array([j[0] for j in judged])
+    off_seen = np.cumsum(off)
+    assert np.all(np.isnan(left[off_seen < pv.SHOE_RISE_FOLLOW_FRAMES]))
+    late = off_seen >= pv.SHOE_RISE_FOLLOW_FRAMES + 5
+    assert late.any() and np.all(np.isfinite(left[late]))
+    assert np.all(np.isnan([j[1] for j in judged]))
+
+
 def _heading(points: np.ndarray) -> np.ndarray:
     d = points[..., TOE, :2] - points[..., HEEL, :2]
     return np.arctan2(d[..., 1], d[..., 0])

@@ -76,6 +76,8 @@ __all__ = [
     "SHOE_CARRY_FRAMES",
     "SHOE_FLAT_FRAMES",
     "SHOE_FLAT_HEIGHT_M",
+    "SHOE_RISE_FOLLOW",
+    "SHOE_RISE_FOLLOW_FRAMES",
     "SHOE_RISE_MAD",
     "SHOE_TURN_JUMP",
     "SHOE_TURN_MAX",
@@ -147,6 +149,19 @@ pitch: a rigid upper seen clearly gives the same rise frame after frame (0.04-0.
 sets C and B's ``normal``, ``asymmetric`` and ``occlusion`` sessions); a trouser hem over the shoe, or clutter taken
 for it, does not (``baggy_trousers`` 0.68-2.6 deg, half the tracks of a user walking in from the side over 0.6), and
 there the tracker's own pitch is kept (DEVELOPERS.md, fifty-ninth session)."""
+
+SHOE_RISE_FOLLOW = 0.8
+"""Smallest correlation, over a foot's frames off the flat, of the pitch its shoe's rise measures with the tracker's
+pitch of it for a rise that scatters more than :data:`SHOE_RISE_MAD` over the flat frames to measure the pitch all the
+same (:func:`shoe_pitch`).  Through a step a foot's pitch swings over tens of degrees, and a rigid upper seen less
+cleanly (a lower-resolution camera's fewer points) follows that swing as the tracker's foot does, a few degrees off
+it (0.85-0.97 on the sweep sets C and A: ``different_camera``, a ``stop_and_go`` and a ``normal`` track with a
+flat-frame scatter of 0.5-1.2 deg, the rise's pitch 1.8-3.5 deg off in heel rise and swing where the tracker's was
+4-7); a trouser hem's slope does not (-0.6 to 0.46: ``baggy_trousers``, ``slow_elderly``, the rise's pitch 10-37 deg
+off).  DEVELOPERS.md, eighty-fifth and eighty-sixth sessions."""
+SHOE_RISE_FOLLOW_FRAMES = 20
+"""Frames off the flat a foot needs, with both its shoe's rise and the tracker's foot, before the correlation of
+:data:`SHOE_RISE_FOLLOW` is judged (fewer: the flat-frame scatter alone decides, as before)."""
 
 SHOE_CARRY_FRAMES = 5
 """A foot's heading measured flat is carried into the frames of its heel rise (the foot pivots about its toes) and
@@ -462,8 +477,9 @@ def shoe_pitch(points: FloatArray, rise: FloatArray) -> FloatArray:
     (:func:`walker_gait.core.feet.measure_shoe_rise`, NaN unmeasured): the shoe's own rise is the median over the
     frames whose reported foot stands flat (heel and toe below :data:`SHOE_FLAT_HEIGHT_M`), and a frame's pitch is
     that less its rise (a rigid shoe turned heel-up turns its upper with it).  NaN where unmeasured, and for a foot
-    with fewer than :data:`SHOE_FLAT_FRAMES` flat frames measured or whose rise over them scatters more than
-    :data:`SHOE_RISE_MAD` (no clean upper in view: a trouser hem over the shoe).
+    with fewer than :data:`SHOE_FLAT_FRAMES` flat frames measured, or whose rise over them scatters more than
+    :data:`SHOE_RISE_MAD` unless the pitch it measures follows the tracker's foot through the frames off the flat
+    (:data:`SHOE_RISE_FOLLOW`; no clean upper in view: a trouser hem over the shoe).
 
     On the synthetic sessions the pitch measured so is 1-4 deg off in heel rise and swing where the tracker's is 3-12
     deg (``out/exp59/pitchdiag.py``, DEVELOPERS.md, fifty-ninth session)."""
@@ -471,22 +487,49 @@ def shoe_pitch(points: FloatArray, rise: FloatArray) -> FloatArray:
     r = np.asarray(rise, dtype=np.float64).reshape(len(pts), 2)
     out = np.full((len(pts), 2), np.nan)
     for side in (0, 1):
-        flat = ((pts[:, side, HEEL, 2] < SHOE_FLAT_HEIGHT_M) & (pts[:, side, TOE, 2] < SHOE_FLAT_HEIGHT_M)
-                & np.isfinite(r[:, side]))
-        own = _own_rise(r[flat, side])
+        down = (pts[:, side, HEEL, 2] < SHOE_FLAT_HEIGHT_M) & (pts[:, side, TOE, 2] < SHOE_FLAT_HEIGHT_M)
+        flat = down & np.isfinite(r[:, side])
+        off = ~down & np.isfinite(r[:, side])
+        own = _own_rise(r[flat, side], r[off, side], _foot_pitch(pts[off, side]))
         if math.isfinite(own):
             out[:, side] = own - r[:, side]
     return out
 
 
-def _own_rise(rises: FloatArray) -> float:
+def _foot_pitch(feet: FloatArray) -> FloatArray:
+    """``(...)`` the pitch (rad, the heel-to-toe line's elevation: negative heel-up) of the feet of ``feet``
+    ``(..., 5, 3)`` (``LEG_POINTS``, body frame)."""
+    d = np.asarray(feet, dtype=np.float64)[..., TOE, :] - np.asarray(feet, dtype=np.float64)[..., HEEL, :]
+    return np.arctan2(d[..., 2], np.hypot(d[..., 0], d[..., 1]))
+
+
+def _own_rise(rises: FloatArray, off_rises: FloatArray | None = None, off_pitch: FloatArray | None = None) -> float:
     """A shoe's own rise: the median of its ``rises`` on flat frames; NaN for fewer than :data:`SHOE_FLAT_FRAMES`
-    of them or ones that scatter more than :data:`SHOE_RISE_MAD` (:func:`shoe_pitch`)."""
+    of them, or ones that scatter more than :data:`SHOE_RISE_MAD` unless over the frames off the flat the pitch the
+    rise measures there (``off_rises``) follows the tracker's (``off_pitch``, rad) as :func:`_rise_follows` asks
+    (:func:`shoe_pitch`)."""
     r = np.asarray(rises, dtype=np.float64)
     if len(r) < SHOE_FLAT_FRAMES:
         return math.nan
     own = float(np.median(r))
-    return own if float(np.median(np.abs(r - own))) <= SHOE_RISE_MAD else math.nan
+    if float(np.median(np.abs(r - own))) <= SHOE_RISE_MAD:
+        return own
+    if off_rises is not None and off_pitch is not None and _rise_follows(off_rises, off_pitch):
+        return own
+    return math.nan
+
+
+def _rise_follows(rises: FloatArray, pitch: FloatArray) -> bool:
+    """Whether the pitch a shoe's ``rises`` measure (its own rise less each: the sign turned) follows the tracker's
+    foot ``pitch`` over the same frames off the flat: at least :data:`SHOE_RISE_FOLLOW_FRAMES` of them, correlated at
+    least :data:`SHOE_RISE_FOLLOW`."""
+    a = -np.asarray(rises, dtype=np.float64)
+    b = np.asarray(pitch, dtype=np.float64)
+    if len(a) < SHOE_RISE_FOLLOW_FRAMES or len(a) != len(b):
+        return False
+    a, b = a - a.mean(), b - b.mean()
+    den = math.sqrt(float(a @ a) * float(b @ b))
+    return den > 0.0 and float(a @ b) / den >= SHOE_RISE_FOLLOW
 
 
 def _steady_turns(jumps: FloatArray, turns: FloatArray) -> bool:
@@ -670,6 +713,8 @@ class _LiveShoe:
     """One foot's shoe measures over a live track so far (:meth:`LivePelvis.place`)."""
 
     rises: deque[float]  # the shoe's rise on its flat frames
+    off_rises: deque[float]  # its rise on the frames off the flat ...
+    off_pitch: deque[float]  # ... and the tracker's foot's pitch on them
     turns: deque[float]  # its turn on its flat frames
     jumps: deque[float]  # the heading's change from one flat frame to the next
     stance: list[float] = dataclasses.field(default_factory=list)  # the headings of the flat frames up to this one
@@ -677,8 +722,7 @@ class _LiveShoe:
 
 
 def _live_shoe() -> _LiveShoe:
-    return _LiveShoe(deque(maxlen=LIVE_LENGTHS_FRAMES), deque(maxlen=LIVE_LENGTHS_FRAMES),
-                     deque(maxlen=LIVE_LENGTHS_FRAMES))
+    return _LiveShoe(*(deque(maxlen=LIVE_LENGTHS_FRAMES) for _ in range(5)))
 
 
 class LivePelvis:
@@ -727,7 +771,10 @@ class LivePelvis:
             toe_down = body[side, TOE, 2] < SHOE_FLAT_HEIGHT_M
             if heel_down and toe_down and math.isfinite(rise[side]):
                 shoe.rises.append(float(rise[side]))
-            own = _own_rise(np.asarray(shoe.rises))
+            elif math.isfinite(rise[side]):
+                shoe.off_rises.append(float(rise[side]))
+                shoe.off_pitch.append(float(_foot_pitch(body[side])))
+            own = _own_rise(np.asarray(shoe.rises), np.asarray(shoe.off_rises), np.asarray(shoe.off_pitch))
             if math.isfinite(own):
                 clean[side] = True
                 pitch[side] = own - rise[side]
