@@ -58,7 +58,7 @@ from collections import deque
 from collections.abc import Sequence
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from walker_gait.core import leg_model as lm
 from walker_gait.core.leg_model import StateLayout as L
@@ -503,7 +503,7 @@ def _foot_pitch(feet: FloatArray) -> FloatArray:
     return np.arctan2(d[..., 2], np.hypot(d[..., 0], d[..., 1]))
 
 
-def _own_rise(rises: FloatArray, off_rises: FloatArray | None = None, off_pitch: FloatArray | None = None) -> float:
+def _own_rise(rises: FloatArray, off_rises: ArrayLike | None = None, off_pitch: ArrayLike | None = None) -> float:
     """A shoe's own rise: the median of its ``rises`` on flat frames; NaN for fewer than :data:`SHOE_FLAT_FRAMES`
     of them, or ones that scatter more than :data:`SHOE_RISE_MAD` unless over the frames off the flat the pitch the
     rise measures there (``off_rises``) follows the tracker's (``off_pitch``, rad) as :func:`_rise_follows` asks
@@ -519,7 +519,7 @@ def _own_rise(rises: FloatArray, off_rises: FloatArray | None = None, off_pitch:
     return math.nan
 
 
-def _rise_follows(rises: FloatArray, pitch: FloatArray) -> bool:
+def _rise_follows(rises: ArrayLike, pitch: ArrayLike) -> bool:
     """Whether the pitch a shoe's ``rises`` measure (its own rise less each: the sign turned) follows the tracker's
     foot ``pitch`` over the same frames off the flat: at least :data:`SHOE_RISE_FOLLOW_FRAMES` of them, correlated at
     least :data:`SHOE_RISE_FOLLOW`."""
@@ -774,7 +774,7 @@ class LivePelvis:
             elif math.isfinite(rise[side]):
                 shoe.off_rises.append(float(rise[side]))
                 shoe.off_pitch.append(float(_foot_pitch(body[side])))
-            own = _own_rise(np.asarray(shoe.rises), np.asarray(shoe.off_rises), np.asarray(shoe.off_pitch))
+            own = _own_rise(np.asarray(shoe.rises), shoe.off_rises, shoe.off_pitch)  # converted only when judged
             if math.isfinite(own):
                 clean[side] = True
                 pitch[side] = own - rise[side]
