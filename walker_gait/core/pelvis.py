@@ -499,7 +499,8 @@ def shoe_pitch(points: FloatArray, rise: FloatArray) -> FloatArray:
 def _foot_pitch(feet: FloatArray) -> FloatArray:
     """``(...)`` the pitch (rad, the heel-to-toe line's elevation: negative heel-up) of the feet of ``feet``
     ``(..., 5, 3)`` (``LEG_POINTS``, body frame)."""
-    d = np.asarray(feet, dtype=np.float64)[..., TOE, :] - np.asarray(feet, dtype=np.float64)[..., HEEL, :]
+    f = np.asarray(feet, dtype=np.float64)
+    d = f[..., TOE, :] - f[..., HEEL, :]
     return np.arctan2(d[..., 2], np.hypot(d[..., 0], d[..., 1]))
 
 
