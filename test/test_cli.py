@@ -59,10 +59,16 @@ def test_passes_choose_one_or_two_tracking_passes(real_bag: Path, tmp_path: Path
     assert twice.returncode == 0, twice.stderr
     assert json.loads((tmp_path / "twice" / "summary.json").read_text())["metadata"]["tracker_runs"] == 2
     assert "2 times each way" in twice.stdout
-    for args in (("--passes", "forward", "--tracker-runs", "2"), ("--tracker-runs", "0"), ("--tracker-runs", "9")):
+    for args in (("--passes", "forward", "--tracker-runs", "2"), ("--tracker-runs", "0"), ("--tracker-runs", "9"),
+                 ("--tracker-threads", "2"), ("--passes", "forward", "--tracker-threads", "0")):
         bad = walker_gait("process", str(real_bag), "--out", str(tmp_path / "bad"), *args)
-        assert bad.returncode == 2 and "tracker-runs" in bad.stderr.replace("_", "-"), bad.stderr
+        assert bad.returncode == 2 and args[-2].lstrip("-") in bad.stderr.replace("_", "-"), bad.stderr
         assert "Traceback" not in bad.stderr
+    # the kernels' threads for the one pass: the same poses as one thread
+    threads = walker_gait("process", str(real_bag), "--out", str(tmp_path / "threads"), "--passes", "forward",
+                          "--leg-length-m", "0.9", "--tracker-threads", "2")
+    assert threads.returncode == 0, threads.stderr
+    assert (tmp_path / "threads" / "joints.csv").read_text() == (tmp_path / "one" / "joints.csv").read_text()
     bad = walker_gait("process", str(real_bag), "--out", str(tmp_path / "bad"), "--passes", "backward")
     assert bad.returncode == 2 and "--passes" in bad.stderr
     # the reported poses' bridge and low-pass take a number >= 0; anything else is refused, naming it

@@ -516,7 +516,7 @@ def test_each_direction_tracked_more_than_once_merges_every_run(short_session: P
     np.testing.assert_array_equal([p.points for p in res.poses], [r.pose.points for r in fin.results])
 
 
-def test_tracker_runs_must_be_a_small_whole_number() -> None:
+def test_tracker_runs_and_threads_must_be_small_whole_numbers() -> None:
     from walker_gait.config import ParameterError
 
     for bad in (0, -1, 9, 1.5, True, "2"):
@@ -528,6 +528,13 @@ def test_tracker_runs_must_be_a_small_whole_number() -> None:
     assert PipelineOptions(passes="forward", preset="accurate").tracker_runs == 1
     with pytest.raises(ParameterError, match="tracker_runs applies to passes 'both'"):
         PipelineOptions(passes="forward", tracker_runs=2)
+    # the kernels' threads: one pass only (both directions already take two cores)
+    assert PipelineOptions(passes="forward", tracker_threads=2).tracker_threads == 2
+    for bad in (0, -1, 1.5, True):
+        with pytest.raises(ParameterError, match="tracker_threads must be"):
+            PipelineOptions(passes="forward", tracker_threads=bad)
+    with pytest.raises(ParameterError, match="tracker_threads applies to passes 'forward'"):
+        PipelineOptions(passes="both", tracker_threads=2)
 
 
 def test_one_pass_reports_the_pelvis_placed_frame_by_frame_as_the_live_node(short_session: Path) -> None:

@@ -84,6 +84,9 @@ class PipelineOptions:
     # the user's measured leg length (m, the hip joint centre's standing height above the floor): the reported thighs
     # and calves of that length with the pelvis placed (core.pelvis.with_leg_length; 0 = not measured: as tracked)
     leg_length_m: float = 0.0
+    # "forward": threads the tracker's compiled likelihood kernels spread the particles over (LegTracker's threads:
+    # the same tracks, less time where a core is idle; "both" keeps one, its two directions already take two cores)
+    tracker_threads: int = 1
 
     def __post_init__(self) -> None:
         from walker_gait.core.gait import GaitConfig
@@ -103,6 +106,12 @@ class PipelineOptions:
         if self.passes != "both" and self.tracker_runs != 1:
             raise ParameterError(f"tracker_runs applies to passes 'both' (the live graph's one pass is tracked once), "
                                  f"got {self.tracker_runs} with passes {self.passes!r}")
+        if isinstance(self.tracker_threads, bool) or not isinstance(self.tracker_threads, int) or \
+                self.tracker_threads < 1:
+            raise ParameterError(f"tracker_threads must be a whole number >= 1, got {self.tracker_threads!r}")
+        if self.passes != "forward" and self.tracker_threads != 1:
+            raise ParameterError(f"tracker_threads applies to passes 'forward' (with 'both' the two directions already "
+                                 f"take two cores), got {self.tracker_threads} with passes {self.passes!r}")
         for name in ("bridge_hidden_s", "report_lowpass_hz", "report_pelvis_window_s"):
             value = getattr(self, name)
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0):
@@ -490,7 +499,8 @@ class FrameProcessor:
             # live)
             self.tracker = LegTracker(self.options.tracker, frame.intrinsics,
                                       rng=stage_rng(self.options.seed, "leg_tracker"), mounting=self.options.mounting,
-                                      measure_shoes=self._two_way or self._pelvis is not None)
+                                      measure_shoes=self._two_way or self._pelvis is not None,
+                                      threads=self.options.tracker_threads)
             self._more = [LegTracker(self.options.tracker, frame.intrinsics,
                                      rng=stage_rng(self.options.seed, "leg_tracker", run=run),
                                      mounting=self.options.mounting, measure_shoes=True) for run in range(1, self._runs)]

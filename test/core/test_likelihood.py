@@ -564,6 +564,76 @@ def test_3d_cue_of_both_backends_agree(frame) -> None:  # noqa: ANN001
     assert tried == 12
 
 
+def test_workspace_chunks_cover_every_particle_once() -> None:
+    from walker_gait.core.likelihood import MIN_THREAD_PARTICLES
+
+    for threads in (1, 2, 3, 8):
+        work = Workspace(threads=threads)
+        for n in (0, 1, MIN_THREAD_PARTICLES - 1, 2 * MIN_THREAD_PARTICLES - 1, 2 * MIN_THREAD_PARTICLES, 50, 192):
+            parts = work.chunks(n)
+            assert parts[0][0] == 0 and parts[-1][1] == n
+            assert all(a[1] == b[0] for a, b in zip(parts, parts[1:]))  # consecutive, no gap or overlap
+            assert len(parts) <= threads
+            assert len(parts) == 1 or all(b - a >= MIN_THREAD_PARTICLES for a, b in parts)
+    assert len(Workspace(threads=2).chunks(2 * MIN_THREAD_PARTICLES)) == 2
+    for bad in (0, -1, 1.5, True):
+        with pytest.raises(ValueError, match="threads"):
+            Workspace(threads=bad)  # type: ignore[arg-type]
+
+
+def test_workspace_spread_runs_every_slice_and_raises_a_threads_error() -> None:
+    import threading
+
+    work = Workspace(threads=3)
+    seen: list[tuple[int, int, int, bool]] = []
+    lock = threading.Lock()
+
+    def record(i: int, a: int, b: int) -> None:
+        with lock:
+            seen.append((i, a, b, threading.current_thread() is threading.main_thread()))
+
+    work.spread(record, 60)
+    assert sorted(x[:3] for x in seen) == [(0, 0, 20), (1, 20, 40), (2, 40, 60)]
+    assert [x[3] for x in sorted(seen)] == [True, False, False]  # the first slice on the calling thread
+    done: list[int] = []
+
+    def fail_second(i: int, a: int, b: int) -> None:
+        if i == 1:
+            raise RuntimeError("slice 1 failed")
+        done.append(i)
+
+    with pytest.raises(RuntimeError, match="slice 1 failed"):
+        work.spread(fail_second, 60)
+    assert sorted(done) == [0, 2]  # the others ran to the end
+
+
+def test_cues_spread_over_threads_are_the_same_bit_for_bit(frame) -> None:  # noqa: ANN001
+    """``Workspace(threads=...)``: the compiled kernels over slices of the particles give each particle the same
+    terms, so both cues' log likelihoods are identical, not merely close."""
+    from walker_gait.core import _jit  # a pinned dependency: fails, not skips, where numba is missing
+
+    assert kernels.compiled() is _jit
+    rng = np.random.default_rng(5)
+    x = np.tile(_truth(), (50, 1))
+    x[:, L.ROOT_X] += rng.normal(0.0, 0.1, 50)
+    x[:, L.ANGLES] += rng.normal(0.0, 0.2, (50, 12))
+    seg, rad = _cam(lm.enforce_constraints(x)[0])
+    fg = frame.points[rng.choice(len(frame.points), 128, replace=False)]
+    cue = CueImage.from_depth(frame.depth, intrinsics=KINECT, stride=4, floor=FLOOR, min_height=0.03)
+    got = {}
+    for threads in (1, 3):
+        work = Workspace(threads=threads)
+        got[threads] = (
+            log_likelihood_3d(seg, rad, fg=fg, params=Cue3DParams(n_skeleton=6, occlusion_aware=True),
+                              cue_image=cue, work=work),
+            log_likelihood_2d(seg[:, :3], rad[:, :3], cue=cue, params=Cue2DParams(occlusion_aware=True),
+                              floor_clip=np.array([False, False, True]), work=work),
+        )
+    assert np.ptp(got[1][0]) > 0 and np.ptp(got[1][1]) > 0
+    np.testing.assert_array_equal(got[3][0], got[1][0])
+    np.testing.assert_array_equal(got[3][1], got[1][1])
+
+
 def test_a_broken_numba_install_falls_back_to_numpy_with_a_warning(monkeypatch) -> None:  # noqa: ANN001
     import builtins
     import sys

@@ -285,6 +285,20 @@ def test_deterministic_with_seed(seq) -> None:  # noqa: ANN001
         np.testing.assert_array_equal(pa.angles, pb.angles)
 
 
+def test_kernel_threads_track_the_same_poses_bit_for_bit(seq) -> None:  # noqa: ANN001
+    """``threads``: the likelihood's compiled kernels spread over threads, each particle's arithmetic unchanged."""
+    cfg = preset("default", n_particles=64, init_rounds=2)
+    one = _run(LegTracker(cfg, KINECT, rng=np.random.default_rng(3)), seq.frames[:6])
+    three = _run(LegTracker(cfg, KINECT, rng=np.random.default_rng(3), threads=3), seq.frames[:6])
+    assert all(p.status == TrackStatus.TRACKING for p in one[1:])
+    for pa, pb in zip(one, three):
+        np.testing.assert_array_equal(pa.points, pb.points)
+        np.testing.assert_array_equal(pa.angles, pb.angles)
+        assert pa.confidence == pb.confidence
+    with pytest.raises(ValueError, match="threads"):
+        LegTracker(cfg, KINECT, rng=np.random.default_rng(3), threads=0)
+
+
 def test_no_user_and_reacquisition(seq) -> None:  # noqa: ANN001
     # three tracker seeds: a single seed's error after re-acquisition is chaotic (2.7-10 cm over seeds)
     late = []

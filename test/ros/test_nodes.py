@@ -823,6 +823,9 @@ def test_leg_tracker_publishes_hidden_feet_bridged_on_a_track_of_its_own(rclpy_c
         node.destroy_node()
     with pytest.raises(ParameterError, match="leg_tracker.bridge_hidden_s"):
         LegTrackerNode(parameter_overrides=[rclpy.parameter.Parameter("bridge_hidden_s", value=-1.0)])
+    # the likelihood kernels' threads (the same tracks; paramspec's default 2), a whole number >= 1
+    with pytest.raises(ParameterError, match="leg_tracker.kernel_threads"):
+        LegTrackerNode(parameter_overrides=[rclpy.parameter.Parameter("kernel_threads", value=0)])
 
 
 def test_leg_markers_are_built_only_while_something_subscribes(rclpy_context: None, monkeypatch: Any) -> None:

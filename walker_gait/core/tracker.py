@@ -789,6 +789,10 @@ class LegTracker:
     estimates a pose leaves their input in :attr:`pending_feet` (None otherwise: no pose, or the last one held) for
     :meth:`FeetReport.complete`, in this process or another: the same poses bit for bit (``walker-gait process``'s
     worker hands its backward pass's to the main process, which is idle by then).  The tracking does not read them.
+    ``threads``: how many threads the likelihood's compiled kernels spread the particles over
+    (:class:`~walker_gait.core.likelihood.Workspace`): the same tracks bit for bit, in less time where a core is
+    otherwise idle (the live ``leg_tracker``; not where every core already tracks, as ``walker-gait process``'s two
+    passes do).
     """
 
     def __init__(
@@ -801,6 +805,7 @@ class LegTracker:
         time_reversed: bool = False,
         measure_shoes: bool = True,
         defer_feet: bool = False,
+        threads: int = 1,
     ) -> None:
         if mounting not in ("facing_user", "facing_forward"):
             raise ValueError(f"mounting must be 'facing_user' or 'facing_forward', got {mounting!r}")
@@ -835,7 +840,7 @@ class LegTracker:
         )
         self._floor_clip = np.array([False, False, True] * 2)
         self._presence = config.presence_test()
-        self._work = Workspace()  # likelihood scratch buffers, reused across frames
+        self._work = Workspace(threads=threads)  # likelihood scratch buffers, reused across frames; its threads
         kernels.compiled()  # load the likelihood's compiled kernels now (compiled once after an install), not on frame 1
         self.reset()
 

@@ -368,6 +368,10 @@ class LegTrackerNode(WalkerNode):
 
         # leg_track_bridged: leg_track with each hidden foot's stretch bridged once it is seen again (held till then)
         self.bridge = LiveBridge(hide_below=self.config.hide_below, max_gap_s=bridge_s) if bridge_s > 0 else None
+        threads = self.declare_parameter("kernel_threads", 2).value
+        if isinstance(threads, bool) or not isinstance(threads, int) or threads < 1:
+            raise ParameterError(f"leg_tracker.kernel_threads must be an integer >= 1, got {threads!r}")
+        self.kernel_threads = int(threads)
         self.tracker: Any = None
         self.intrinsics: Any = None
         self.sync = StampSync(("points", "mask", "floor"), stand_in=("floor",))
@@ -419,7 +423,7 @@ class LegTrackerNode(WalkerNode):
         self.intrinsics = intr
         # the shoes' rise and turn place the reported heels (LivePelvis; about 5 ms a frame on a slow 2-core computer)
         self.tracker = LegTracker(self.config, intr, rng=stage_rng(self.seed, "leg_tracker"), mounting=self.mounting,
-                                  measure_shoes=self.pelvis is not None)
+                                  measure_shoes=self.pelvis is not None, threads=self.kernel_threads)
         if self.pelvis is not None:
             self.pelvis.reset()
         if self.bridge is not None:  # a new track: what is held comes out as tracked
