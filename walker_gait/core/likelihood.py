@@ -130,6 +130,14 @@ class Workspace:
         return buf[:n].reshape(shape)
 
 
+def _spread(work: Workspace | None, fn: Callable[[int, int, int], None], n: int) -> None:
+    """``fn`` over ``n`` particles as the workspace spreads them (:meth:`Workspace.spread`); all at once without one."""
+    if work is None:
+        fn(0, 0, n)
+    else:
+        work.spread(fn, n)
+
+
 def _scratch(work: Workspace | None, name: str, shape: tuple[int, ...], dtype: type = np.float32) -> np.ndarray:
     """A workspace buffer, or a fresh array when there is no workspace."""
     if work is None:
@@ -374,10 +382,7 @@ def _log_likelihood_3d_compiled(
             _scratch(work, f"fm_scratch{i}" if i else "fm_scratch", (n,)),
         )
 
-    if work is None:
-        terms(0, 0, p)
-    else:
-        work.spread(terms, p)
+    _spread(work, terms, p)
     d_mf = mf.sum(axis=1) / count
     d_fm = fm.mean(axis=1)
     d1 = 0.5 * (d_fm + d_mf)
@@ -630,10 +635,7 @@ def render_depth(
             jit.render_boxes(img[a:b], v0, u0, box_rows, ax[a:b], ay[a:b], bx[a:b], by[a:b], rad_c[a:b], za[a:b],
                              zb[a:b], drad_c[a:b], fx, clip_s, ray_up, float(cue.floor_offset), threshold)
 
-        if work is None:
-            draw(0, 0, p)
-        else:
-            work.spread(draw, p)
+        _spread(work, draw, p)
         return out
     # scratch shared by all segments, sized for the largest segment bbox
     size = p * max((b[2] - b[1]) * (b[4] - b[3]) for b in boxes)
@@ -837,10 +839,7 @@ def log_likelihood_2d(
                                     np.float32(params.occluded_cost), np.float32(params.truncate), rows[a:b],
                                     _scratch(work, f"cost_row{i}" if i else "cost_row", (obs.size,)))
 
-            if work is None:
-                costs(0, 0, len(rows))
-            else:
-                work.spread(costs, len(rows))
+            _spread(work, costs, len(rows))
             out[sl] = rows / total
             continue
         if ref_render is not None:
