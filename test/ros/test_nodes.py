@@ -663,6 +663,35 @@ def test_gait_analyzer_counts_a_frame_whose_parts_did_not_all_arrive(rclpy_conte
         node.destroy_node()
 
 
+def test_gait_analyzer_waits_for_leg_tracks_that_lag_their_floor_planes(rclpy_context: None) -> None:
+    """A busy tracker's leg tracks come 15 frames behind the floor planes (the live bench on a slow host: ~400 ms):
+    each is analysed with its own floor plane, nothing reported skipped or stood in."""
+    from walker_gait.core.types import LegPose
+    from walker_gait.ros.nodes import GaitAnalyzerNode
+
+    node = GaitAnalyzerNode()
+    floors: list[float] = []
+    node.publish_results = lambda events, steps, header: None
+    analyse = node.on_frame
+    node.on_frame = lambda msg, floor: (floors.append(floor.offset), analyse(msg, floor))  # type: ignore[method-assign]
+    try:
+        for i in range(40):
+            header = M.make_header(1.0 + i / 30, "cam")
+            floor = FloorPlane.from_camera_pose(height=0.5 + i / 1000, pitch=0.5)
+            node.dispatch("floor_plane", M.FLOOR_PLANE, lambda m: node.on_part("floor", m),
+                          M.serialize(M.make_floor_plane(floor, header)))
+            if i >= 15:
+                j = i - 15
+                pose = LegPose(stamp=1.0 + j / 30, points=np.zeros((2, 5, 3)), status=TrackStatus.NO_USER,
+                               confidence=0.0)
+                node.dispatch("leg_track", M.LEG_TRACK, lambda m: node.on_part("track", m),
+                              M.serialize(M.make_leg_track(pose, M.make_header(1.0 + j / 30, "cam"))))
+        assert node.frames_ok == 25 and node.problems == {} and node.stand_ins == {}
+        assert floors == pytest.approx([0.5 + j / 1000 for j in range(25)])
+    finally:
+        node.destroy_node()
+
+
 def test_leg_tracker_tracks_a_frame_whose_floor_plane_never_arrived(rclpy_context: None) -> None:
     """The floor plane is the part the live graph lost (an input queue overflowing while the tracker was busy): the
     frame is tracked with the latest floor plane, a JointState per image; a frame without its cloud is dropped."""
@@ -700,6 +729,49 @@ def test_stamp_sync_hands_frames_out_in_stamp_order_when_a_lost_part_delays_one(
         M.stamp_to_ns(_part(1.0).header.stamp), M.stamp_to_ns(_part(1.1).header.stamp)]
     assert ready[0]["track"] is track1 and sync.take_stood_in() == [(M.stamp_to_ns(track1.header.stamp), ("floor",))]
     assert list(sync.pending) == [(M.stamp_to_ns(_part(1.2).header.stamp), "cam")]
+
+
+def test_stamp_sync_lets_stand_in_parts_wait_for_a_lagging_topic_beyond_keep() -> None:
+    """The floor planes run ahead of the leg tracks by the tracker's latency, more than ``keep`` frames when it is
+    busy: with ``keep_waiting`` each late track still finds its own floor (none dropped, none stood in); without it
+    the floors were pushed out, each frame reported dropped and then analysed with a newer floor."""
+    from walker_gait.ros.nodes import StampSync
+
+    with pytest.raises(ValueError, match="keep_waiting"):
+        StampSync(("track", "floor"), keep_waiting=-1)
+
+    def run(sync: StampSync, lag: int) -> list[dict[str, Any]]:
+        out: list[dict[str, Any]] = []
+        for i in range(40):
+            out += sync.add("floor", _part(1.0 + i / 30))
+            if i >= lag:
+                out += sync.add("track", _part(1.0 + (i - lag) / 30))
+        return out
+
+    sync = StampSync(("track", "floor"), keep=3, stand_in=("floor",), keep_waiting=20)
+    ready = run(sync, lag=12)
+    assert len(ready) == 28 and sync.take_dropped() == [] and sync.take_stood_in() == []
+    assert all(r["floor"].header.stamp == r["track"].header.stamp for r in ready)
+    assert len(sync.pending) == 12  # the floors still waiting for their tracks
+    old = StampSync(("track", "floor"), keep=3, stand_in=("floor",))
+    ready_old = run(old, lag=12)
+    assert len(ready_old) == 28 and len(old.take_dropped()) == 40 - 3 and len(old.take_stood_in()) == 28
+    # a floor waits at most keep_waiting frames: a longer lag is the old behaviour again
+    sync = StampSync(("track", "floor"), keep=3, stand_in=("floor",), keep_waiting=5)
+    ready = run(sync, lag=8)
+    assert len(sync.take_dropped()) == 40 - 5 and len(sync.take_stood_in()) == len(ready) == 32 - 3
+    # a floor whose track never comes is still reported, once, when a later frame completes (tracks come in order)
+    sync = StampSync(("track", "floor"), keep=3, stand_in=("floor",), keep_waiting=20)
+    for i in range(8):
+        sync.add("floor", _part(1.0 + i / 30))
+    for i in (0, 1, 3):  # the tracker skipped frame 2
+        sync.add("track", _part(1.0 + i / 30))
+    assert sync.take_dropped() == [(M.stamp_to_ns(_part(1.0 + 2 / 30).header.stamp), ("track",))]
+    assert sync.take_stood_in() == [] and len(sync.pending) == 4
+    sync = StampSync(("pts", "mask", "floor"), keep=2, stand_in=("floor",), keep_waiting=50)
+    for i in range(6):
+        sync.add("pts", _part(1.0 + i))  # the masks never come
+    assert len(sync.pending) == 2 and [m for _, m in sync.take_dropped()] == [("mask", "floor")] * 4
 
 
 def test_leg_tracker_leg_length_reaches_the_placement_and_is_validated(rclpy_context: None) -> None:
@@ -823,9 +895,22 @@ def test_leg_tracker_publishes_hidden_feet_bridged_on_a_track_of_its_own(rclpy_c
         node.destroy_node()
     with pytest.raises(ParameterError, match="leg_tracker.bridge_hidden_s"):
         LegTrackerNode(parameter_overrides=[rclpy.parameter.Parameter("bridge_hidden_s", value=-1.0)])
-    # the likelihood kernels' threads (the same tracks; paramspec's default 2), a whole number >= 1
+    # the likelihood kernels' threads (the same tracks), a whole number >= 0; 0 (the default) by the usable cores
     with pytest.raises(ParameterError, match="leg_tracker.kernel_threads"):
-        LegTrackerNode(parameter_overrides=[rclpy.parameter.Parameter("kernel_threads", value=0)])
+        LegTrackerNode(parameter_overrides=[rclpy.parameter.Parameter("kernel_threads", value=-1)])
+    from walker_gait.ros.nodes import auto_kernel_threads, usable_cores
+
+    assert [auto_kernel_threads(c) for c in (1, 2, 3, 4, 16)] == [1, 1, 1, 2, 2]
+    node = LegTrackerNode()
+    try:
+        assert node.kernel_threads == auto_kernel_threads(usable_cores())
+    finally:
+        node.destroy_node()
+    node = LegTrackerNode(parameter_overrides=[rclpy.parameter.Parameter("kernel_threads", value=3)])
+    try:
+        assert node.kernel_threads == 3
+    finally:
+        node.destroy_node()
 
 
 def test_leg_markers_are_built_only_while_something_subscribes(rclpy_context: None, monkeypatch: Any) -> None:

@@ -16,6 +16,7 @@ Topics, types, QoS and parameters are tabulated in the README.
 from __future__ import annotations
 
 import math
+import os
 import time
 from collections import deque
 from typing import Any
@@ -253,6 +254,12 @@ class FloorSegmentationNode(WalkerNode):
 # ---------------------------------------------------------------------------------- leg_tracker
 
 
+# frames of which only the floor plane has arrived wait this long for their other parts (5 s at 30 Hz): the floor
+# planes come straight from floor_segmentation, the leg tracks behind them by the tracker's latency (400 ms and more
+# when it cannot keep up); a floor plane is some 100 bytes
+FLOOR_WAIT_FRAMES = 150
+
+
 class StampSync:
     """Exact-time synchroniser for a few topics published with one header (no message_filters on PyPI).
 
@@ -262,13 +269,22 @@ class StampSync:
     missing parts) once, for the node to report.  Parts named in ``stand_in`` (ones that change slowly, the floor
     plane) are not worth a frame: a frame missing only those is handed out with the latest message of each
     instead, and :meth:`take_stood_in` lists it.
+
+    ``keep_waiting``: a frame of which only stand-in parts have arrived so far is waiting for a slower topic (the
+    floor planes run ahead of the leg tracks by the tracker's latency, often more than ``keep`` frames when the
+    tracker is busy); up to this many such frames wait without counting towards ``keep``, so the slower part still
+    finds its own.  ``None``: they count towards ``keep`` like any other.
     """
 
-    def __init__(self, names: tuple[str, ...], *, keep: int = 10, stand_in: tuple[str, ...] = ()) -> None:
+    def __init__(self, names: tuple[str, ...], *, keep: int = 10, stand_in: tuple[str, ...] = (),
+                 keep_waiting: int | None = None) -> None:
         if not set(stand_in) <= set(names):
             raise ValueError(f"stand_in {stand_in} must be among the parts {names}")
+        if keep < 0 or (keep_waiting is not None and keep_waiting < 0):
+            raise ValueError(f"keep {keep} and keep_waiting {keep_waiting} must be >= 0")
         self.names = names
         self.keep = keep
+        self.keep_waiting = keep_waiting
         self.stand_in = stand_in
         self.pending: dict[tuple[int, str], dict[str, Any]] = {}
         self._latest: dict[str, Any] = {}
@@ -290,10 +306,22 @@ class StampSync:
                 self._give_up(k, self.pending.pop(k), ready)
             ready.append(slot)
             return ready
-        while len(self.pending) > self.keep:
-            k = min(self.pending, key=lambda k: k[0])
+        for k in self._overflow():
             self._give_up(k, self.pending.pop(k), ready)
         return ready
+
+    def _overflow(self) -> list[tuple[int, str]]:
+        """The pending frames pushed out by newer incomplete ones, oldest first."""
+        def oldest_first(keys: Any) -> list[tuple[int, str]]:
+            return sorted(keys, key=lambda k: k[0])
+
+        if self.keep_waiting is None:
+            return oldest_first(self.pending)[:max(len(self.pending) - self.keep, 0)]
+        waiting = {k for k, slot in self.pending.items() if all(n in self.stand_in for n in slot)}
+        holding = oldest_first(k for k in self.pending if k not in waiting)
+        ordered_waiting = oldest_first(waiting)
+        return oldest_first(holding[:max(len(holding) - self.keep, 0)]
+                            + ordered_waiting[:max(len(ordered_waiting) - self.keep_waiting, 0)])
 
     def _give_up(self, key: tuple[int, str], slot: dict[str, Any], ready: list[dict[str, Any]]) -> None:
         missing = tuple(n for n in self.names if n not in slot)
@@ -323,6 +351,24 @@ def report_sync(node: WalkerNode, sync: StampSync) -> None:
     for stamp_ns, missing in sync.take_stood_in():
         node.report_stand_in("_".join(missing), f"the {', '.join(missing)} of the frame stamped "
                                                  f"{stamp_ns * 1e-9:.3f} s never arrived: the latest one stood in")
+
+
+def usable_cores() -> int:
+    """The cores this process may run on (a container's or ``taskset``'s share, not the machine's)."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:  # not on Linux
+        return os.cpu_count() or 1
+
+
+def auto_kernel_threads(cores: int) -> int:
+    """``leg_tracker.kernel_threads`` 0: the likelihood kernels' threads on a computer with ``cores`` cores.
+
+    The live graph keeps two cores busy (floor_segmentation, the replay or the camera driver, gait_analyzer beside
+    the tracker): on two cores a second kernel thread has no idle core to run on (the live bench's replay on the
+    2-core VM, eight alternated runs each: 133-229 of 300 JointStates out with 1, 132-234 with 2, no difference
+    beyond the host's noise); with four or more it finds one."""
+    return 2 if cores >= 4 else 1
 
 
 def _nobody_listens(publish: Any) -> bool:
@@ -368,13 +414,15 @@ class LegTrackerNode(WalkerNode):
 
         # leg_track_bridged: leg_track with each hidden foot's stretch bridged once it is seen again (held till then)
         self.bridge = LiveBridge(hide_below=self.config.hide_below, max_gap_s=bridge_s) if bridge_s > 0 else None
-        threads = self.declare_parameter("kernel_threads", 2).value
-        if isinstance(threads, bool) or not isinstance(threads, int) or threads < 1:
-            raise ParameterError(f"leg_tracker.kernel_threads must be an integer >= 1, got {threads!r}")
-        self.kernel_threads = int(threads)
+        threads = self.declare_parameter("kernel_threads", 0).value
+        if isinstance(threads, bool) or not isinstance(threads, int) or threads < 0:
+            raise ParameterError(f"leg_tracker.kernel_threads must be an integer >= 0 (0 = by the computer's cores), "
+                                 f"got {threads!r}")
+        self.kernel_threads = int(threads) or auto_kernel_threads(usable_cores())
         self.tracker: Any = None
         self.intrinsics: Any = None
-        self.sync = StampSync(("points", "mask", "floor"), stand_in=("floor",))
+        self.sync = StampSync(("points", "mask", "floor"), stand_in=("floor",),
+                              keep_waiting=FLOOR_WAIT_FRAMES)
         self.pub_joints = self.raw_publisher(M.JOINT_STATE, "joint_states", STREAM)
         self.pub_track = self.raw_publisher(M.LEG_TRACK, "leg_track", STREAM)
         self.pub_markers = self.raw_publisher(M.MARKER_ARRAY, "leg_markers", STREAM)
@@ -521,7 +569,7 @@ class GaitAnalyzerNode(WalkerNode):
         use_odom = bool(self.declare_parameter("use_odometry", False).value)
         self.analyzer = GaitAnalyzer(self.config)
         self._last_stamp: float | None = None
-        self.sync = StampSync(("track", "floor"), stand_in=("floor",))
+        self.sync = StampSync(("track", "floor"), stand_in=("floor",), keep_waiting=FLOOR_WAIT_FRAMES)
         self.frame_id = ""
         self.pub_event = self.raw_publisher(M.GAIT_EVENT, "gait_events", EVENTS)
         self.pub_step = self.raw_publisher(M.STEP, "steps", EVENTS)
