@@ -290,9 +290,11 @@ def section_process_and_live(seed: int, live: bool) -> list[str]:
             lr = run_live(bag, rate=1.0, timeout_s=120)
             lines += [f"* live graph fed by `replay` at 30 Hz: {lr.images} images in, {lr.joint_states} JointState out; "
                       f"latency image→JointState median **{lr.median_latency_ms:.0f} ms**, p95 {lr.p95_latency_ms:.0f} ms "
-                      f"(target median ≤ 100 ms); latency trend {f(lr.latency_trend_ms_per_s())} ms per s "
+                      f"(target median ≤ 100 ms), of which image→floor_plane (decoding and segmentation) "
+                      f"{lr.floor_median_latency_ms:.0f} ms; latency trend {f(lr.latency_trend_ms_per_s())} ms per s "
                       f"(> 0 = growing backlog); frames reported skipped: {lr.skipped or 'none'}, "
-                      f"processed with a stand-in part: {lr.stood_in or 'none'}; "
+                      f"processed with a stand-in part: {lr.stood_in or 'none'}, "
+                      f"without a part the sender dropped: {lr.absent or 'none'}; "
                       f"{len(lr.steps)} steps (process: {len(res.steps)})"]
             bl = lr.bridged_latencies_ms
             lines += [f"* `leg_track_bridged` in the same run: {len(lr.bridged_stamps_ns)} LegTrack out (frames still "

@@ -36,8 +36,10 @@ class LiveResult:
     bridged_latencies_ms: list[float] = field(default_factory=list)  # image arrival -> leg_track_bridged arrival
     steps: list[Any] = field(default_factory=list)
     latencies_ms: list[float] = field(default_factory=list)
+    floor_latencies_ms: list[float] = field(default_factory=list)  # image arrival -> floor_plane arrival (segmented)
     skipped: dict[str, int] = field(default_factory=dict)
     stood_in: dict[str, int] = field(default_factory=dict)  # frames processed with a stand-in part, per node and part
+    absent: dict[str, int] = field(default_factory=dict)  # frames a node got without a part its sender left out
     run_exit_code: int | None = None
     wall_s: float = 0.0
     first_stamp_ns: int | None = None
@@ -47,6 +49,11 @@ class LiveResult:
     @property
     def median_latency_ms(self) -> float:
         return float(np.median(self.latencies_ms)) if self.latencies_ms else float("nan")
+
+    @property
+    def floor_median_latency_ms(self) -> float:
+        """Median image -> floor_plane latency (ms): the depth decoding and segmentation's share."""
+        return float(np.median(self.floor_latencies_ms)) if self.floor_latencies_ms else float("nan")
 
     @property
     def p95_latency_ms(self) -> float:
@@ -80,6 +87,7 @@ def run_live(path: Path, *, rate: float = 1.0, timeout_s: float = 120.0, settle_
     result = LiveResult()
     arrivals: dict[int, float] = {}
     arrivals_bridged: dict[int, float] = {}
+    arrivals_floor: dict[int, float] = {}
     rclpy.init()
     node = rclpy.create_node("walker_gait_live_probe")
     best_effort = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=50, reliability=ReliabilityPolicy.RELIABLE,
@@ -87,7 +95,8 @@ def run_live(path: Path, *, rate: float = 1.0, timeout_s: float = 120.0, settle_
 
     def on_image(data: bytes, typename: str = M.IMAGE) -> None:
         msg = M.deserialize(data, typename)
-        arrivals[M.stamp_to_ns(msg.header.stamp)] = arrivals_bridged[M.stamp_to_ns(msg.header.stamp)] = time.monotonic()
+        stamp = M.stamp_to_ns(msg.header.stamp)
+        arrivals[stamp] = arrivals_bridged[stamp] = arrivals_floor[stamp] = time.monotonic()
         if result.first_stamp_ns is None:
             result.first_stamp_ns = M.stamp_to_ns(msg.header.stamp)
         result.images += 1
@@ -108,6 +117,12 @@ def run_live(path: Path, *, rate: float = 1.0, timeout_s: float = 120.0, settle_
         if t_in is not None:
             result.bridged_latencies_ms.append((now - t_in) * 1e3)
 
+    def on_floor(data: bytes) -> None:
+        now = time.monotonic()
+        t_in = arrivals_floor.pop(M.stamp_to_ns(M.deserialize(data, M.FLOOR_PLANE).header.stamp), None)
+        if t_in is not None:
+            result.floor_latencies_ms.append((now - t_in) * 1e3)
+
     def on_diag(data: bytes) -> None:
         msg = M.deserialize(data, M.DIAGNOSTIC_ARRAY)
         for status in msg.status:
@@ -116,6 +131,8 @@ def run_live(path: Path, *, rate: float = 1.0, timeout_s: float = 120.0, settle_
                     result.skipped[f"{status.name}:{kv.key[8:]}"] = int(kv.value)
                 elif kv.key.startswith("stood_in."):
                     result.stood_in[f"{status.name}:{kv.key[9:]}"] = int(kv.value)
+                elif kv.key.startswith("absent."):
+                    result.absent[f"{status.name}:{kv.key[7:]}"] = int(kv.value)
 
     if by_info:
         node.create_subscription(rclpy_type(M.CAMERA_INFO), "/depth/camera_info",
@@ -128,6 +145,8 @@ def run_live(path: Path, *, rate: float = 1.0, timeout_s: float = 120.0, settle_
                              lambda d: result.steps.append(M.step_from_msg(M.deserialize(d, M.STEP))), EVENTS,
                              raw=True)
     node.create_subscription(rclpy_type(M.DIAGNOSTIC_ARRAY), "/diagnostics", on_diag, DIAGNOSTICS, raw=True)
+    # the segmentation's share of the latency: its floor plane (some 100 bytes) carries the image's stamp
+    node.create_subscription(rclpy_type(M.FLOOR_PLANE), "/floor_plane", on_floor, best_effort, raw=True)
     env = dict(os.environ, PYTHONUNBUFFERED="1")
     graph = [sys.executable, "-m", "walker_gait.cli", "run", "--nodes",
              "depth_to_cloud,floor_segmentation,leg_tracker,gait_analyzer",
@@ -147,7 +166,7 @@ def run_live(path: Path, *, rate: float = 1.0, timeout_s: float = 120.0, settle_
         # graph: images -> floor_segmentation; CameraInfo -> depth_to_cloud, floor_segmentation, leg_tracker
         links = {"/depth/image_raw": 1 if by_info else 2, "/depth/camera_info": 4 if by_info else 3,
                  "/foreground/points": 1, "/foreground/mask": 1,
-                 "/floor_plane": 2, "/leg_track": 1}
+                 "/floor_plane": 3, "/leg_track": 1}  # floor_plane: leg_tracker, gait_analyzer, this probe
         while time.monotonic() - t0 < 60:
             rclpy.spin_once(node, timeout_sec=0.1)
             if all(node.count_subscribers(t) >= n for t, n in links.items()):

@@ -144,6 +144,7 @@ class WalkerNode(Node):
         super().__init__(name, **kwargs)
         self._problems: Counter[str] = Counter()
         self._stand_ins: Counter[str] = Counter()
+        self._absent: Counter[str] = Counter()
         self.frames_ok = 0
         self.busy_monitor: BusyMonitor | None = None  # made by the first :meth:`frame_timed`
         self._diag_pub = self.create_publisher(rclpy_type(M.DIAGNOSTIC_ARRAY), "/diagnostics", DIAGNOSTICS)
@@ -213,6 +214,15 @@ class WalkerNode(Node):
         if n is not None:
             self.get_logger().warning(f"{detail} ({kind} stood in {n}x; counted on /diagnostics)")
 
+    def report_absent(self, kind: str, detail: str) -> None:
+        """Count a frame that never came whole for a reason the node upstream reports itself (a leg track the
+        tracker dropped while it could not keep up, which its own /diagnostics show): on /diagnostics as
+        ``absent.KIND``, not a problem of this node; the first of each kind (then once per 1000) logged as
+        information."""
+        n = _tally(self._absent, kind)
+        if n is not None:
+            self.get_logger().info(f"{detail} ({kind} absent {n}x; counted on /diagnostics)")
+
     def diagnostic_values(self) -> dict[str, Any]:
         """A node's own key-values for /diagnostics (none by default)."""
         return {}
@@ -223,6 +233,7 @@ class WalkerNode(Node):
         values: dict[str, Any] = {"frames_ok": self.frames_ok}
         values.update({f"skipped.{k}": v for k, v in sorted(self._problems.items())})
         values.update({f"stood_in.{k}": v for k, v in sorted(self._stand_ins.items())})
+        values.update({f"absent.{k}": v for k, v in sorted(self._absent.items())})
         values.update(self.diagnostic_values())
         busy = self.busy_monitor
         if busy is not None and math.isfinite(busy.work_ms):  # frames timed
@@ -259,6 +270,10 @@ class WalkerNode(Node):
     @property
     def stand_ins(self) -> dict[str, int]:
         return dict(self._stand_ins)
+
+    @property
+    def absent(self) -> dict[str, int]:
+        return dict(self._absent)
 
 
 def _tally(counter: Counter[str], kind: str) -> int | None:

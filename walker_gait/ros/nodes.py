@@ -342,10 +342,18 @@ class StampSync:
         return out
 
 
-def report_sync(node: WalkerNode, sync: StampSync) -> None:
+def report_sync(node: WalkerNode, sync: StampSync, *, absent: tuple[str, ...] = ()) -> None:
     """Count each frame ``sync`` gave up as a skipped frame of ``node`` (logged once, on /diagnostics), and each
-    one it completed with a stand-in part (logged once, counted on /diagnostics)."""
+    one it completed with a stand-in part (logged once, counted on /diagnostics).  A frame that lacks only parts
+    named in ``absent`` (ones whose publisher reports the frames it leaves out itself) is counted as absent, not as
+    this node's problem."""
     for stamp_ns, missing in sync.take_dropped():
+        if absent and set(missing) <= set(absent):
+            node.report_absent("_".join(missing), f"the {', '.join(missing)} of the frame stamped "
+                                                  f"{stamp_ns * 1e-9:.3f} s never came (the node that sends it dropped "
+                                                  "the frame, most often because it could not keep up: see its "
+                                                  "/diagnostics)")
+            continue
         node.report_problem("incomplete_frame", f"frame stamped {stamp_ns * 1e-9:.3f} s dropped: its "
                                                 f"{', '.join(missing)} never arrived (an input queue overflowed?)")
     for stamp_ns, missing in sync.take_stood_in():
@@ -588,7 +596,7 @@ class GaitAnalyzerNode(WalkerNode):
 
     def on_part(self, name: str, msg: Any) -> None:
         ready = self.sync.add(name, msg)
-        report_sync(self, self.sync)
+        report_sync(self, self.sync, absent=("track",))
         for parts in ready:
             with self.guard("leg_track"):
                 self.on_frame(parts["track"], M.floor_from_msg(parts["floor"]))
