@@ -92,7 +92,9 @@ NODE_PARAMS: dict[str, list[tuple[str, Any, str]]] = {
                             "likelihood kernels): 2 / 5 / 10 → 82 / 99 / 99 % of frames tracked, median latency 37 / 56 "
                             "/ 52 ms (host load varies between runs: `make bench`'s run at 10 gave 55 ms with two "
                             "layers, 61 ms with three; one or two frames in 300 are occasionally lost between "
-                            "floor_segmentation and leg_tracker even at 10)"),
+                            "floor_segmentation and leg_tracker even at 10); on a host too slow for the tracker to "
+                            "keep up (50-70 ms a frame beside the other nodes) 2 / 10 → 125-181 / 139-165 of 300 "
+                            "frames tracked, median latency 125-175 / 398-413 ms"),
         ("kernel_threads", 0, "threads the likelihood's compiled kernels spread the particles over (the 3D cue's "
                               "terms, the 2D cue's renderer and pixel costs): the same tracks bit for bit; 0 = by the "
                               "cores the node may use, 2 with four or more, else 1. On the 2-core machine those kernels "
