@@ -170,6 +170,7 @@ class PipelineOptions:
                 raise ParameterError(f"floor_segmentation.{name} must match depth_to_cloud.{name} ({value!r})")
         d2c.pop("input_reliability", None)  # live transport only
         trk.pop("input_depth", None)  # live transport only
+        trk.pop("kernel_threads", None)  # the live node's; offline a one-pass run takes --tracker-threads
         pelvis = trk.pop("pelvis_window_s", None)  # the node's reported pelvis; a command line's own value wins
         if pelvis is not None and "report_pelvis_window_s" not in kwargs:
             kwargs["report_pelvis_window_s"] = float(pelvis)
