@@ -101,3 +101,18 @@ def test_tracker_presets_reach_the_offline_options(repo_root: Path) -> None:
     assert (mixed.preset, mixed.tracker.n_particles) == ("accurate", 300)
     with pytest.raises(ParameterError, match="unknown preset 'fast'"):
         PipelineOptions.from_params(params, {}, preset="fast")
+
+
+def test_every_listed_node_parameter_is_accepted_by_the_offline_options() -> None:
+    """`walker-gait process --params FILE` reads the live graph's parameters file: every parameter the README lists
+    for a node (its default) must be accepted, the live-only ones (queues, threads, transport) ignored offline
+    (leg_tracker.kernel_threads was refused as unknown to TrackerConfig)."""
+    from walker_gait.pipeline import PipelineOptions
+
+    params = {node: {name: default for name, default, _ in spec} for node, spec in NODE_PARAMS.items()}
+    params.pop("bag_replay", None)  # the player, not a stage `process` runs
+    options = PipelineOptions.from_params(params, {})
+    assert options.tracker.n_particles == 192 and options.bridge_hidden_s == 1.0
+    for node, values in params.items():
+        for name, value in values.items():
+            PipelineOptions.from_params({node: {name: value}}, {})  # each alone too
