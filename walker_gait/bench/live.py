@@ -98,7 +98,7 @@ def run_live(path: Path, *, rate: float = 1.0, timeout_s: float = 120.0, settle_
         stamp = M.stamp_to_ns(msg.header.stamp)
         arrivals[stamp] = arrivals_bridged[stamp] = arrivals_floor[stamp] = time.monotonic()
         if result.first_stamp_ns is None:
-            result.first_stamp_ns = M.stamp_to_ns(msg.header.stamp)
+            result.first_stamp_ns = stamp
         result.images += 1
 
     def on_joints(data: bytes) -> None:
