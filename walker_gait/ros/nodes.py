@@ -311,17 +311,16 @@ class StampSync:
         return ready
 
     def _overflow(self) -> list[tuple[int, str]]:
-        """The pending frames pushed out by newer incomplete ones, oldest first."""
-        def oldest_first(keys: Any) -> list[tuple[int, str]]:
-            return sorted(keys, key=lambda k: k[0])
+        """The pending frames pushed out by newer incomplete ones, oldest first: those beyond ``keep`` of the ones
+        holding a required part, and those beyond ``keep_waiting`` of the ones holding only stand-in parts (with
+        ``keep_waiting`` None, every frame counts towards ``keep``)."""
+        def beyond(keys: set[tuple[int, str]], cap: int) -> list[tuple[int, str]]:
+            return sorted(keys, key=lambda k: k[0])[:max(len(keys) - cap, 0)]
 
-        if self.keep_waiting is None:
-            return oldest_first(self.pending)[:max(len(self.pending) - self.keep, 0)]
-        waiting = {k for k, slot in self.pending.items() if all(n in self.stand_in for n in slot)}
-        holding = oldest_first(k for k in self.pending if k not in waiting)
-        ordered_waiting = oldest_first(waiting)
-        return oldest_first(holding[:max(len(holding) - self.keep, 0)]
-                            + ordered_waiting[:max(len(ordered_waiting) - self.keep_waiting, 0)])
+        waiting = set() if self.keep_waiting is None else \
+            {k for k, slot in self.pending.items() if all(n in self.stand_in for n in slot)}
+        pushed = beyond(set(self.pending) - waiting, self.keep) + beyond(waiting, self.keep_waiting or 0)
+        return sorted(pushed, key=lambda k: k[0])
 
     def _give_up(self, key: tuple[int, str], slot: dict[str, Any], ready: list[dict[str, Any]]) -> None:
         missing = tuple(n for n in self.names if n not in slot)
