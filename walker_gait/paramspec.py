@@ -67,7 +67,7 @@ NODE_PARAMS: dict[str, list[tuple[str, Any, str]]] = {
                               "pelvis placed, the published thighs and "
                               "calves have that length, each knee moved along its tracked calf (the camera measures "
                               "neither; `walker_gait.core.pelvis.with_leg_length`; 0 = not measured: the typical "
-                              "adult's, thigh 0.43 m and calf 0.42 m, `pelvis.TYPICAL_THIGH_CALF_M`; "
+                              "adult's, thigh 0.42 m and calf 0.42 m (a 1.70 m stature), `pelvis.TYPICAL_THIGH_CALF_M`; "
                               "may be set while the node runs, for the next user: `ros2 param set /leg_tracker "
                               "leg_length_m 0.91`; the other parameters are read at start)"),
         ("bridge_hidden_s", 1.0, "s; `leg_track_bridged` (LegTrack): `leg_track` with each stretch in which a foot was "

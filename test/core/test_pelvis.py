@@ -132,9 +132,10 @@ def test_place_poses_puts_the_pelvis_over_the_feet_and_leaves_the_feet_alone() -
     np.testing.assert_array_equal(segs[:, :, 0, 0], np.stack([p.points for p in placed])[:, :, HIP])
     np.testing.assert_array_equal(segs[:, :, 1, 0], np.stack([p.points for p in placed])[:, :, KNEE])
     np.testing.assert_array_equal(segs[:, :, 1, 1], np.stack([p.points for p in placed])[:, :, ANKLE])
-    # the lengths of the model stay (the placed hips and knees are a model pose)
+    # the placed hips and knees are a model pose with the typical adult's thighs (the walk's are the model's mean)
     thigh = np.linalg.norm(after[:, :, HIP] - after[:, :, KNEE], axis=-1)
-    np.testing.assert_allclose(thigh, np.linalg.norm(before[:, :, HIP] - before[:, :, KNEE], axis=-1), atol=1e-6)
+    assert abs(np.linalg.norm(before[:, :, HIP] - before[:, :, KNEE], axis=-1).mean() - pv.TYPICAL_THIGH_CALF_M[0]) > 0.01
+    np.testing.assert_allclose(thigh, pv.TYPICAL_THIGH_CALF_M[0], atol=1e-6)
 
 
 def test_place_poses_passes_frames_without_a_track_through() -> None:
@@ -239,6 +240,38 @@ def test_a_held_pose_is_held_as_placed() -> None:
         np.testing.assert_array_equal(out[k].points, out[19].points)
         np.testing.assert_array_equal(out[k].angles, out[19].angles)
     assert not np.array_equal(out[24].points, out[19].points)
+
+
+def test_unmeasured_legs_are_a_typical_adults_not_the_models_mean() -> None:
+    """Without a measured leg length the thighs and calves are reported as Winter's shares of a 1.70 m adult's
+    stature, not as the tracker's mean shape (0.43 / 0.42 m, a 1.73 m adult's): a user of that stature tracked on
+    the model's mean legs has the hips reported at their height (they stood 1.5 cm high before), offline and live."""
+    thigh, calf = pv.TYPICAL_THIGH_CALF_M
+    np.testing.assert_allclose([thigh, calf], np.array([pv.THIGH_OF_STATURE, pv.CALF_OF_STATURE]) * 1.70)
+    poses, states = _walk(n=60, lean_deg=-10.0, thigh=thigh, calf=calf)  # the pelvis a walking lean ahead
+    true_pts = np.stack([p.points for p in poses]) @ FLIP
+    assert abs(np.mean([_ahead(p) for p in true_pts]) - pv.WALK_LEAN_M) < 0.01
+    held = np.stack([pv.held_points(p) for p in true_pts])
+    model = pv.with_lengths(states, held, thigh=np.full(len(states), lm.MEAN_SHAPE[0]),
+                            calf=np.full(len(states), lm.MEAN_SHAPE[1]))
+    solved = pv.place_pelvis(*model, lm.hip_positions(states).mean(axis=1)[:, :2])
+    tracked = []
+    for k, (p, x) in enumerate(zip(poses, solved)):
+        pts = true_pts[k].copy()
+        pts[:, [HIP, KNEE]] = lm.forward_kinematics(x).points[0][:, [HIP, KNEE]]
+        tracked.append(pv.with_points(p, pts @ FLIP, angles=lm.joint_angles(x)))
+    inner = slice(15, -15)
+    hip_z = true_pts[inner][:, :, HIP, 2]
+    tracked_z = (np.stack([p.points for p in tracked]) @ FLIP)[inner][:, :, HIP, 2]
+    assert (tracked_z - hip_z).mean() > 0.01  # the model's legs stand the hips high
+    placed = np.stack([p.points for p in pv.place_poses(tracked)]) @ FLIP
+    assert abs((placed[inner][:, :, HIP, 2] - hip_z).mean()) < 0.004
+    floor = _floor()
+    rot, t = floor.walker_transform()
+    live = pv.LivePelvis()
+    out = [live.place(pv.moved_pose(p, rot.T, -(rot.T @ t)), floor) for p in tracked]
+    live_pts = np.stack([floor.to_walker(p.points) for p in out]) @ FLIP
+    assert abs((live_pts[inner][:, :, HIP, 2] - hip_z).mean()) < 0.004
 
 
 def test_a_measured_leg_length_puts_the_hips_at_their_height() -> None:

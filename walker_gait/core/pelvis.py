@@ -67,6 +67,7 @@ from walker_gait.core.types import ANKLE, HEEL, HIP, KNEE, TOE, FloorPlane, LegP
 FloatArray = NDArray[np.float64]
 
 __all__ = [
+    "CALF_OF_STATURE",
     "HEMMED_SHOE_M",
     "HEM_LOOSENESS",
     "HIP_HEIGHT_SHARE",
@@ -82,7 +83,9 @@ __all__ = [
     "SHOE_TURN_JUMP",
     "SHOE_TURN_MAX",
     "STAND_LEAN_M",
+    "THIGH_OF_STATURE",
     "THIGH_SHARE",
+    "TYPICAL_STATURE_M",
     "WALK_LEAN_M",
     "WALK_SWING_M",
     "calf_radii",
@@ -316,17 +319,34 @@ def pelvis_target(samples: FloatArray) -> FloatArray:
     return np.array([*(s[:, :2].mean(axis=0) + lean(s[:, 2]) * np.array([math.cos(yaw), math.sin(yaw)])), yaw])
 
 
-THIGH_SHARE = 0.245 / 0.491
+THIGH_OF_STATURE = 0.245
+"""The thigh's length (greater trochanter to knee) as a share of stature (Winter, *Biomechanics and Motor Control of
+Human Movement*, segment lengths)."""
+CALF_OF_STATURE = 0.246
+"""The shank's length (knee to ankle) as a share of stature (Winter, as :data:`THIGH_OF_STATURE`)."""
+THIGH_SHARE = THIGH_OF_STATURE / (THIGH_OF_STATURE + CALF_OF_STATURE)
 """The thigh's share of thigh + shank for a measured leg length (Winter's segment lengths as fractions of stature:
 thigh 0.245, leg 0.246)."""
+TYPICAL_STATURE_M = 1.70
+"""The stature (m) of the typical adult whose thighs and calves are reported where the user's leg length is not
+measured (:data:`TYPICAL_THIGH_CALF_M`): adult women average about 1.62 m and men 1.76 m in the United States and
+western Europe, older adults a few centimetres less; 1.70 m lies between (a user far from it gives the measured leg
+length, ``leg_length_m``)."""
 LEG_LENGTH_RANGE_M = (0.5, 1.3)
 """Leg lengths (m) :func:`with_leg_length` accepts: adults' hips stand 0.65-1.05 m above the floor; a value outside
 is a mistake (centimetres, a stature) rather than a user."""
 
 
-TYPICAL_THIGH_CALF_M: tuple[float, float] | None = (float(lm.MEAN_SHAPE[0]), float(lm.MEAN_SHAPE[1]))
-"""The thigh and calf lengths (m) reported where the user's leg length is not measured: the leg model's typical adult
-(:data:`~walker_gait.core.leg_model.MEAN_SHAPE`, hips 0.85 m over the ankles).  The camera sees neither the hips nor,
+TYPICAL_THIGH_CALF_M: tuple[float, float] | None = (THIGH_OF_STATURE * TYPICAL_STATURE_M,
+                                                    CALF_OF_STATURE * TYPICAL_STATURE_M)
+"""The thigh and calf lengths (m) reported where the user's leg length is not measured: the typical adult's,
+Winter's shares of a :data:`TYPICAL_STATURE_M` stature (0.4165 and 0.4182 m, hips 0.835 m over the ankles).  Until
+the eighty-ninth session these were the leg model's mean shape (:data:`~walker_gait.core.leg_model.MEAN_SHAPE`, 0.43
+and 0.42 m, hips 0.85 m over the ankles: a 1.73 m adult's legs), which put the reported hips 2.6 cm too high on
+average over the sweep sets C and A (the synthetic users' legs average 83.4 cm); with a 1.70 m adult's legs, the
+same stored runs re-reported: hips C 5.96 -> 5.56, A 5.82 -> 5.65, B (three scenarios) 5.89 -> 5.36 cm, knees 0.04-0.06
+cm better, live (C / A) hips 6.48 -> 6.31 / 6.63 -> 6.28 (DEVELOPERS.md, eighty-ninth session).  The tracker's own mean
+shape is unchanged.  The camera sees neither the hips nor,
 mounted as usual, the knees, so the tracker's thigh and calf lengths are carried by its dynamics alone: over the 64
 sessions of sweep sets C and A (sixty-fifth session) each track's medians were uncorrelated with the user's
 (correlation -0.13 / -0.04 for the thigh, 0.15 / -0.05 for the calf), their sum 6.0 / 6.6 cm off (RMS) where the
