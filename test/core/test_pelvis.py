@@ -242,6 +242,41 @@ def test_a_held_pose_is_held_as_placed() -> None:
     assert not np.array_equal(out[24].points, out[19].points)
 
 
+def test_the_hips_are_reported_a_typical_adults_width_apart() -> None:
+    """The tracker's hip distance is unseen and starts from the feet's, narrower than the hips: a track carrying the
+    hips 0.14 m apart over the same feet and knees is reported with them the typical adult's 0.18 m apart, each near
+    its true place across the body (2 cm off as tracked), the feet kept; offline and live alike."""
+    assert pv.TYPICAL_HIP_WIDTH_M == 0.18
+    poses, states = _walk(n=60, lean_deg=-10.0)  # the model's neutral hips, 0.18 m apart; the pelvis a lean ahead
+    true_pts = np.stack([p.points for p in poses]) @ FLIP
+    narrow = states.copy()
+    narrow[:, L.HIP_DIST] = 0.14
+    solved = pv.place_pelvis(narrow, np.stack([pv.held_points(p) for p in true_pts]),
+                             lm.hip_positions(states).mean(axis=1)[:, :2])
+    tracked = []
+    for k, (p, x) in enumerate(zip(poses, solved)):
+        pts = true_pts[k].copy()
+        pts[:, [HIP, KNEE]] = lm.forward_kinematics(x).points[0][:, [HIP, KNEE]]
+        tracked.append(pv.with_points(p, pts @ FLIP, angles=lm.joint_angles(x)))
+    tracked_pts = np.stack([p.points for p in tracked]) @ FLIP
+    inner = slice(15, -15)
+
+    def across(pts: np.ndarray) -> np.ndarray:  # each hip's sideways distance from its true place (m)
+        return np.abs(pts[inner][:, :, HIP, 1] - true_pts[inner][:, :, HIP, 1])
+
+    np.testing.assert_allclose(np.linalg.norm(tracked_pts[:, 0, HIP] - tracked_pts[:, 1, HIP], axis=-1), 0.14)
+    assert across(tracked_pts).mean() > 0.015
+    floor = _floor()
+    rot, t = floor.walker_transform()
+    live = pv.LivePelvis()
+    live_out = [live.place(pv.moved_pose(p, rot.T, -(rot.T @ t)), floor) for p in tracked]
+    for placed in (np.stack([p.points for p in pv.place_poses(tracked)]) @ FLIP,
+                   np.stack([floor.to_walker(p.points) for p in live_out]) @ FLIP):
+        np.testing.assert_allclose(np.linalg.norm(placed[:, 0, HIP] - placed[:, 1, HIP], axis=-1), 0.18, atol=1e-9)
+        assert across(placed).mean() < 0.005
+        np.testing.assert_allclose(placed[:, :, [ANKLE, TOE]], tracked_pts[:, :, [ANKLE, TOE]], atol=1e-9)
+
+
 def test_unmeasured_legs_are_a_typical_adults_not_the_models_mean() -> None:
     """Without a measured leg length the thighs and calves are reported as Winter's shares of a 1.70 m adult's
     stature, not as the tracker's mean shape (0.43 / 0.42 m, a 1.73 m adult's): a user of that stature tracked on

@@ -41,7 +41,9 @@ through the upper's points, :func:`walker_gait.core.feet.measure_shoe_turn`) whe
 its heel rise and back to its heel strike (the tracker's foot's yaw, the end of the leg's chain, is 3-5 deg off);
 live both over the track so far, the heading carried into the heel rise only (:class:`LivePelvis`).
 
-The hips' height is the leg lengths', which nothing in view measures either: given the user's measured leg length
+The hips are reported the typical adult's :data:`TYPICAL_HIP_WIDTH_M` apart (the tracker's distance between them,
+unseen, starts from the feet's and wanders).  The hips' height is the leg lengths', which nothing in view measures
+either: given the user's measured leg length
 (``leg_length_m``, the hip joint centre's standing height above the floor, as gait labs record it), the thighs and
 calves are reported with it (:func:`with_leg_length`), otherwise as the typical adult's.
 
@@ -85,6 +87,7 @@ __all__ = [
     "STAND_LEAN_M",
     "THIGH_OF_STATURE",
     "THIGH_SHARE",
+    "TYPICAL_HIP_WIDTH_M",
     "TYPICAL_STATURE_M",
     "WALK_LEAN_M",
     "WALK_SWING_M",
@@ -354,6 +357,19 @@ typical adult's is 4.4 / 4.4 cm off (the synthetic users' 83.1 / 83.7 cm on aver
 hips 6.65 -> 5.90 / 6.94 -> 5.82 cm, the knees 4.11 -> 4.04 / 4.93 -> 3.82, live 7.1 -> 6.6 and 5.3 -> 4.6 (both
 sets).  Even a camera that sees the knees (``different_camera``) had the calves 1.6-7.2 cm short.  ``None``: the
 tracked ones (the track's medians)."""
+
+
+TYPICAL_HIP_WIDTH_M: float | None = 0.18
+"""The distance (m) between the hip joint centres of the reported pelvis: the typical adult's (the hip joint centre
+lies 0.33 of the pelvis's width plus 7 mm from its midline, Harrington et al., J. Biomech. 40 (2007); an adult's
+pelvis, from one anterior superior iliac spine to the other, is about 0.25 m wide; the leg model's neutral stance).
+The camera sees no hip, and the tracker's hip distance starts from the separation of the two leg blobs, the feet's,
+which walk narrower than the hips, and is carried by its dynamics: over the sweep sets C and A it was 15.5 cm on
+average (sd 2.0-2.3 cm within and between sessions) where the synthetic users' is 18.0 (sd 0.9), each reported hip
+1.2 cm too near the midline.  Reported at this distance: hips C 5.56 -> 5.30, A 5.65 -> 5.38, B (three scenarios)
+5.36 -> 5.04 cm, better in every scenario; knees 0.10-0.12 cm better; live (C / A) hips 6.31 -> 6.07 / 6.28 -> 6.04;
+the joint angles' errors within 0.05 deg (hip abduction 0.11-0.16 better, hip rotation and ankle flexion 0.03-0.06
+worse) (DEVELOPERS.md, eighty-ninth session).  ``None``: the tracked one."""
 
 
 HIP_HEIGHT_SHARE = 0.530
@@ -901,13 +917,16 @@ def _solve(points: FloatArray, angles: FloatArray, target: FloatArray, leg_lengt
            foot_heading: FloatArray | None = None,
            heel_sides: NDArray[np.bool_] | None = None) -> tuple[FloatArray, FloatArray]:
     """Poses ``points`` ``(F, 2, 5, 3)`` (body frame) with joint ``angles`` ``(F, 12)`` placed at ``target`` ``(F, 3)``
-    (:func:`pelvis_target`'s x, y, azimuth) with the thigh, calf and foot ``lengths`` ``(F, 3)`` of their tracks
+    (:func:`pelvis_target`'s x, y, azimuth), the hips :data:`TYPICAL_HIP_WIDTH_M` apart, with the thigh, calf and
+    foot ``lengths`` ``(F, 3)`` of their tracks
     (:func:`segment_lengths`; NaN: as tracked, a NaN foot in any row: every heel as tracked), the thighs and calves
     of ``leg_length_m`` instead if given, and each heel (of ``heel_sides`` ``(F, 2)``, if given) at ``foot_pitch`` and
     ``foot_heading`` ``(F, 2)`` where finite (:func:`with_lengths`):
     the solved states ``(F, 23)`` and the points with the solution's hips and knees, the heels moved to the foot's
     length, the rest as given."""
     states = np.stack([pose_state(p, a) for p, a in zip(points, angles)])
+    if TYPICAL_HIP_WIDTH_M is not None:
+        states[:, L.HIP_DIST] = TYPICAL_HIP_WIDTH_M
     held = np.asarray(points, dtype=np.float64)[:, :, _HELD]
     lengths = np.asarray(lengths, dtype=np.float64).reshape(len(states), 3)
     tracked = states[:, [L.LEN_THIGH, L.LEN_CALF]]
