@@ -959,9 +959,37 @@ def test_busy_monitor_says_once_per_episode_that_a_node_falls_behind() -> None:
         BusyMonitor(window=3, min_frames=5)
 
 
+def test_busy_monitor_counts_the_frames_between_those_worked_on() -> None:
+    """Frames the node never worked on are counted from the gaps in the stamps of those it did, by the camera's
+    period (the shortest interval seen): none at the camera's rate, even with jitter; two in each 100 ms gap of a
+    30 Hz camera; a pause of the input (longer than ``max_gap_s``) is not frames missed; a loop starts no count."""
+    from walker_gait.ros.base import BusyMonitor
+
+    rng = np.random.default_rng(0)
+    m = BusyMonitor()
+    stamps = np.arange(60) / 30 + rng.uniform(-0.004, 0.004, 60)  # 30 Hz, +-4 ms of jitter
+    for t in stamps:
+        m.add(float(t), 0.01)
+    assert m.missed == 0 and m.period_s == pytest.approx(1 / 30, abs=0.009)
+    t = float(stamps[-1])
+    for i in range(1, 11):  # every third frame taken
+        m.add(t + i / 10, 0.09)
+    assert m.missed == 20
+    m.add(t + 1.0 + 5.0, 0.01)  # the input paused for 5 s
+    assert m.missed == 20
+    m.add(t + 6.0 + 4 / 30, 0.01)  # three frames lost whole
+    assert m.missed == 23
+    m.add(0.0, 0.01)  # a replay that loops
+    m.add(1 / 30, 0.01)
+    assert m.missed == 23
+    with pytest.raises(ValueError):
+        BusyMonitor(max_gap_s=0.0)
+
+
 def test_leg_tracker_says_when_it_cannot_keep_up_and_diagnostics_warn(rclpy_context: None) -> None:
     """Frames stamped 1 ms apart (far more than any tracker keeps up with): the node falls behind once, its
-    /diagnostics turn WARN with the share of the time it is busy; frames a second apart: it keeps up again, OK."""
+    /diagnostics turn WARN with the share of the time it is busy and count the frames that never came between those
+    it tracked; frames a second apart: it keeps up again, OK."""
     from walker_gait.bench.tracker import KINECT
 
     node, joints = make_tracker_node()
@@ -971,15 +999,16 @@ def test_leg_tracker_says_when_it_cannot_keep_up_and_diagnostics_warn(rclpy_cont
         node.dispatch("depth/camera_info", M.CAMERA_INFO, node.on_info,
                       M.serialize(M.make_camera_info(KINECT, M.make_header(1.0, "cam"))))
         fr = standing_frame(1.0)
-        for i in range(20):
+        for i in [*range(20), 23]:  # the frames stamped 1.020-1.022 s never come
             dispatch_parts(node, 1.0 + i * 0.001, points=fr.points, mask=np.isfinite(fr.depth))
-        assert len(joints) == 20 and node.busy_monitor is not None
+        assert len(joints) == 21 and node.busy_monitor is not None
         assert node.busy_monitor.overloaded and node.busy_monitor.episodes == 1 and node.busy_monitor.busy > 1
         node._publish_diagnostics()
         status = sent[-1].status[0]
         values = {kv.key: kv.value for kv in status.values}
         assert status.level == 1 and "cannot keep up" in status.message
         assert float(values["busy_pct"]) > 100 and float(values["work_ms_mean"]) > 1
+        assert int(values["frames_missed"]) == 3
         for i in range(60):
             dispatch_parts(node, 2.0 + i, points=fr.points, mask=np.isfinite(fr.depth))
         assert not node.busy_monitor.overloaded and node.busy_monitor.episodes == 1

@@ -294,7 +294,8 @@ def section_process_and_live(seed: int, live: bool) -> list[str]:
                       f"{lr.floor_median_latency_ms:.0f} ms; latency trend {f(lr.latency_trend_ms_per_s())} ms per s "
                       f"(> 0 = growing backlog); frames reported skipped: {lr.skipped or 'none'}, "
                       f"processed with a stand-in part: {lr.stood_in or 'none'}, "
-                      f"without a part the sender dropped: {lr.absent or 'none'}; "
+                      f"without a part the sender dropped: {lr.absent or 'none'}, "
+                      f"between the frames a node worked on, by their stamps, those it did not: {lr.missed or 'none'}; "
                       f"{len(lr.steps)} steps (process: {len(res.steps)})"]
             bl = lr.bridged_latencies_ms
             lines += [f"* `leg_track_bridged` in the same run: {len(lr.bridged_stamps_ns)} LegTrack out (frames still "

@@ -40,6 +40,7 @@ class LiveResult:
     skipped: dict[str, int] = field(default_factory=dict)
     stood_in: dict[str, int] = field(default_factory=dict)  # frames processed with a stand-in part, per node and part
     absent: dict[str, int] = field(default_factory=dict)  # frames a node got without a part its sender left out
+    missed: dict[str, int] = field(default_factory=dict)  # per node: frames between those it worked on that it did not
     run_exit_code: int | None = None
     wall_s: float = 0.0
     first_stamp_ns: int | None = None
@@ -133,6 +134,8 @@ def run_live(path: Path, *, rate: float = 1.0, timeout_s: float = 120.0, settle_
                     result.stood_in[f"{status.name}:{kv.key[9:]}"] = int(kv.value)
                 elif kv.key.startswith("absent."):
                     result.absent[f"{status.name}:{kv.key[7:]}"] = int(kv.value)
+                elif kv.key == "frames_missed":
+                    result.missed[status.name] = int(kv.value)
 
     if by_info:
         node.create_subscription(rclpy_type(M.CAMERA_INFO), "/depth/camera_info",

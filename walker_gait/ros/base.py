@@ -13,6 +13,7 @@ from __future__ import annotations
 import importlib
 import math
 import signal
+import statistics
 import sys
 import threading
 import time
@@ -84,12 +85,24 @@ class BusyMonitor:
     against the span of their stamps (1.0: busy all the time).  Above ``limit`` the node cannot keep up with the
     camera: frames wait in its input queue (latency grows to the queue's depth) and are then dropped; it counts as
     keeping up again below ``limit`` x ``relief``.  A stamp that does not advance (a replay that loops) starts
-    afresh."""
+    afresh.
 
-    def __init__(self, *, window: int = 60, limit: float = 0.95, relief: float = 0.85, min_frames: int = 15) -> None:
-        if not (window >= min_frames >= 2 and 0.0 < relief < 1.0 and limit > 0.0):
-            raise ValueError(f"window >= min_frames >= 2, 0 < relief < 1 and limit > 0, got {window}, {min_frames}, "
-                             f"{relief}, {limit}")
+    It also counts the frames it did not work on (:attr:`missed`): where consecutive frames it worked on lie ``k``
+    camera periods apart, ``k - 1`` frames came between them that it skipped (counted by kind as well) or never got
+    (lost whole in its input queue, or never sent).  The period (:attr:`period_s`) is the median of the recent stamp
+    intervals within 1.5 times the shortest of them (the consecutive frames', whatever the stamps' jitter): a node
+    that never sees two consecutive frames reads a multiple of it and counts too few, never too many; a gap of
+    ``max_gap_s`` or more is the input pausing (a camera restarted, a replay between recordings), not frames missed."""
+
+    def __init__(self, *, window: int = 60, limit: float = 0.95, relief: float = 0.85, min_frames: int = 15,
+                 max_gap_s: float = 1.0) -> None:
+        if not (window >= min_frames >= 2 and 0.0 < relief < 1.0 and limit > 0.0 and max_gap_s > 0.0):
+            raise ValueError(f"window >= min_frames >= 2, 0 < relief < 1, limit > 0 and max_gap_s > 0, got {window}, "
+                             f"{min_frames}, {relief}, {limit}, {max_gap_s}")
+        self.max_gap_s = max_gap_s
+        self._intervals: deque[float] = deque(maxlen=4 * window)  # stamp intervals between frames worked on
+        self.period_s = math.nan  # the camera's period (s) read from them; NaN before the first interval
+        self.missed = 0  # frames between those worked on that the node never got
         self.limit = limit
         self.relief = relief
         self.min_frames = min_frames
@@ -103,6 +116,13 @@ class BusyMonitor:
         if self._frames and stamp_s <= self._frames[-1][0]:
             self._frames.clear()
             self.overloaded = False
+        if self._frames:
+            gap = stamp_s - self._frames[-1][0]
+            if gap < self.max_gap_s:
+                self._intervals.append(gap)
+                shortest = min(self._intervals)
+                self.period_s = statistics.median(g for g in self._intervals if g <= 1.5 * shortest)
+                self.missed += max(0, round(gap / self.period_s) - 1)
         self._frames.append((stamp_s, work_s))
         busy = self.busy
         if not math.isfinite(busy):
@@ -238,7 +258,8 @@ class WalkerNode(Node):
         busy = self.busy_monitor
         if busy is not None and math.isfinite(busy.work_ms):  # frames timed
             values.update({"busy_pct": round(100 * busy.busy, 1) if math.isfinite(busy.busy) else "n/a",
-                           "work_ms_mean": round(busy.work_ms, 1), "falling_behind_episodes": busy.episodes})
+                           "work_ms_mean": round(busy.work_ms, 1), "falling_behind_episodes": busy.episodes,
+                           "frames_missed": busy.missed})
             if busy.overloaded:
                 level = 1
                 message = ("cannot keep up with its input" if message == "ok"
