@@ -368,7 +368,7 @@ which walk narrower than the hips, and is carried by its dynamics: over the swee
 average (sd 2.0-2.3 cm within and between sessions) where the synthetic users' is 18.0 (sd 0.9), each reported hip
 1.2 cm too near the midline.  Reported at this distance: hips C 5.56 -> 5.30, A 5.65 -> 5.38, B (three scenarios)
 5.36 -> 5.04 cm, better in every scenario; knees 0.10-0.12 cm better; live (C / A) hips 6.31 -> 6.07 / 6.28 -> 6.04;
-the joint angles' errors within 0.05 deg (hip abduction 0.11-0.16 better, hip rotation and ankle flexion 0.03-0.06
+the joint angles' errors within 0.07 deg (hip abduction 0.11-0.16 better, hip rotation and ankle flexion 0.03-0.06
 worse) (DEVELOPERS.md, eighty-ninth session).  ``None``: the tracked one."""
 
 
