@@ -975,6 +975,8 @@ def test_busy_monitor_counts_the_frames_between_those_worked_on() -> None:
     for i in range(1, 11):  # every third frame taken
         m.add(t + i / 10, 0.09)
     assert m.missed == 20
+    m.add(t + 1.0 + 5e-5, 0.01)  # stamped a hair after the last: no period of a camera
+    assert m.missed == 20 and m.period_s == pytest.approx(1 / 30, abs=0.009)
     m.add(t + 1.0 + 5.0, 0.01)  # the input paused for 5 s
     assert m.missed == 20
     m.add(t + 6.0 + 4 / 30, 0.01)  # three frames lost whole

@@ -80,6 +80,11 @@ def rclpy_type(typename: str) -> Any:
     return getattr(importlib.import_module(f"{pkg}.msg"), name)
 
 
+_MIN_PERIOD_S = 1e-4
+"""Stamp intervals shorter than this (s) are no camera's period (10 kHz): two messages of one frame stamped a hair
+apart, not frames; :class:`BusyMonitor` neither reads its period from them nor counts them."""
+
+
 class BusyMonitor:
     """How much of its input's time a node spends working on it: the work summed over the last ``window`` frames
     against the span of their stamps (1.0: busy all the time).  Above ``limit`` the node cannot keep up with the
@@ -102,7 +107,7 @@ class BusyMonitor:
         self.max_gap_s = max_gap_s
         self._intervals: deque[float] = deque(maxlen=4 * window)  # stamp intervals between frames worked on
         self.period_s = math.nan  # the camera's period (s) read from them; NaN before the first interval
-        self.missed = 0  # frames between those worked on that the node never got
+        self.missed = 0  # frames between those worked on that the node did not work on
         self.limit = limit
         self.relief = relief
         self.min_frames = min_frames
@@ -118,7 +123,7 @@ class BusyMonitor:
             self.overloaded = False
         if self._frames:
             gap = stamp_s - self._frames[-1][0]
-            if gap < self.max_gap_s:
+            if _MIN_PERIOD_S <= gap < self.max_gap_s:
                 self._intervals.append(gap)
                 shortest = min(self._intervals)
                 self.period_s = statistics.median(g for g in self._intervals if g <= 1.5 * shortest)
