@@ -164,6 +164,26 @@ def _floor() -> FloorPlane:
     return FloorPlane(normal=up, offset=0.5, rms=0.0, inlier_ratio=1.0, valid=True)
 
 
+def _with_hips_and_knees(poses: list[LegPose], true_pts: np.ndarray, states: np.ndarray) -> list[LegPose]:
+    """``poses`` as a tracker would report them holding ``states`` ``(F, 23)``: their feet (``true_pts``, body
+    frame) kept, the hips, knees and joint angles those of the states."""
+    out = []
+    for p, pts, x in zip(poses, true_pts, states):
+        pts = pts.copy()
+        pts[:, [HIP, KNEE]] = lm.forward_kinematics(x).points[0][:, [HIP, KNEE]]
+        out.append(pv.with_points(p, pts @ FLIP, angles=lm.joint_angles(x)))
+    return out
+
+
+def _placed_live(live: pv.LivePelvis, poses: list[LegPose]) -> np.ndarray:
+    """``(F, 2, 5, 3)`` body-frame points of walker-frame ``poses`` placed frame by frame by ``live``, through the
+    camera frame of :func:`_floor`."""
+    floor = _floor()
+    rot, t = floor.walker_transform()
+    out = [live.place(pv.moved_pose(p, rot.T, -(rot.T @ t)), floor) for p in poses]
+    return np.stack([floor.to_walker(p.points) for p in out]) @ FLIP
+
+
 def test_live_pelvis_follows_a_drifting_user_without_lag_and_keeps_the_feet() -> None:
     """Frame by frame, causal: a user who drifts back from the walker at 0.2 m/s (legs still: a standing user's lean)
     gets the pelvis placed over the ankles where they are now (a line through the last second's midpoints), not where
@@ -253,11 +273,7 @@ def test_the_hips_are_reported_a_typical_adults_width_apart() -> None:
     narrow[:, L.HIP_DIST] = 0.14
     solved = pv.place_pelvis(narrow, np.stack([pv.held_points(p) for p in true_pts]),
                              lm.hip_positions(states).mean(axis=1)[:, :2])
-    tracked = []
-    for k, (p, x) in enumerate(zip(poses, solved)):
-        pts = true_pts[k].copy()
-        pts[:, [HIP, KNEE]] = lm.forward_kinematics(x).points[0][:, [HIP, KNEE]]
-        tracked.append(pv.with_points(p, pts @ FLIP, angles=lm.joint_angles(x)))
+    tracked = _with_hips_and_knees(poses, true_pts, solved)
     tracked_pts = np.stack([p.points for p in tracked]) @ FLIP
     inner = slice(15, -15)
 
@@ -266,12 +282,8 @@ def test_the_hips_are_reported_a_typical_adults_width_apart() -> None:
 
     np.testing.assert_allclose(np.linalg.norm(tracked_pts[:, 0, HIP] - tracked_pts[:, 1, HIP], axis=-1), 0.14)
     assert across(tracked_pts).mean() > 0.015
-    floor = _floor()
-    rot, t = floor.walker_transform()
-    live = pv.LivePelvis()
-    live_out = [live.place(pv.moved_pose(p, rot.T, -(rot.T @ t)), floor) for p in tracked]
     for placed in (np.stack([p.points for p in pv.place_poses(tracked)]) @ FLIP,
-                   np.stack([floor.to_walker(p.points) for p in live_out]) @ FLIP):
+                   _placed_live(pv.LivePelvis(), tracked)):
         np.testing.assert_allclose(np.linalg.norm(placed[:, 0, HIP] - placed[:, 1, HIP], axis=-1), 0.18, atol=1e-9)
         assert across(placed).mean() < 0.005
         np.testing.assert_allclose(placed[:, :, [ANKLE, TOE]], tracked_pts[:, :, [ANKLE, TOE]], atol=1e-9)
@@ -290,22 +302,14 @@ def test_unmeasured_legs_are_a_typical_adults_not_the_models_mean() -> None:
     model = pv.with_lengths(states, held, thigh=np.full(len(states), lm.MEAN_SHAPE[0]),
                             calf=np.full(len(states), lm.MEAN_SHAPE[1]))
     solved = pv.place_pelvis(*model, lm.hip_positions(states).mean(axis=1)[:, :2])
-    tracked = []
-    for k, (p, x) in enumerate(zip(poses, solved)):
-        pts = true_pts[k].copy()
-        pts[:, [HIP, KNEE]] = lm.forward_kinematics(x).points[0][:, [HIP, KNEE]]
-        tracked.append(pv.with_points(p, pts @ FLIP, angles=lm.joint_angles(x)))
+    tracked = _with_hips_and_knees(poses, true_pts, solved)
     inner = slice(15, -15)
     hip_z = true_pts[inner][:, :, HIP, 2]
     tracked_z = (np.stack([p.points for p in tracked]) @ FLIP)[inner][:, :, HIP, 2]
     assert (tracked_z - hip_z).mean() > 0.01  # the model's legs stand the hips high
     placed = np.stack([p.points for p in pv.place_poses(tracked)]) @ FLIP
     assert abs((placed[inner][:, :, HIP, 2] - hip_z).mean()) < 0.004
-    floor = _floor()
-    rot, t = floor.walker_transform()
-    live = pv.LivePelvis()
-    out = [live.place(pv.moved_pose(p, rot.T, -(rot.T @ t)), floor) for p in tracked]
-    live_pts = np.stack([floor.to_walker(p.points) for p in out]) @ FLIP
+    live_pts = _placed_live(pv.LivePelvis(), tracked)
     assert abs((live_pts[inner][:, :, HIP, 2] - hip_z).mean()) < 0.004
 
 
@@ -323,11 +327,7 @@ def test_a_measured_leg_length_puts_the_hips_at_their_height() -> None:
     held = np.stack([pv.held_points(p) for p in true_pts])
     short, short_held = pv.with_leg_length(states, held, leg - 0.06)
     solved = pv.place_pelvis(short, short_held, lm.hip_positions(states).mean(axis=1)[:, :2])
-    tracked = []
-    for p, x in zip(poses, solved):
-        pts = true_pts[len(tracked)].copy()
-        pts[:, [HIP, KNEE]] = lm.forward_kinematics(x).points[0][:, [HIP, KNEE]]
-        tracked.append(pv.with_points(p, pts @ FLIP, angles=lm.joint_angles(x)))
+    tracked = _with_hips_and_knees(poses, true_pts, solved)
     inner = slice(15, -15)
     hip_z = true_pts[inner][:, :, HIP, 2]
 
@@ -353,16 +353,10 @@ def test_a_measured_leg_length_puts_the_hips_at_their_height() -> None:
     ang = np.degrees(np.arccos(np.clip(cos, -1.0, 1.0)))  # least squares with the feet: near the line, not on it
     assert np.median(ang) < 5.0 and ang.max() < 8.0
     # live: the same lengths
-    floor = _floor()
-    rot, t = floor.walker_transform()
-    unmeasured = pv.LivePelvis()
-    out = [unmeasured.place(pv.moved_pose(p, rot.T, -(rot.T @ t)), floor) for p in tracked]
-    live_pts = np.stack([floor.to_walker(p.points) for p in out]) @ FLIP
+    live_pts = _placed_live(pv.LivePelvis(), tracked)
     np.testing.assert_allclose(np.linalg.norm(live_pts[:, :, HIP] - live_pts[:, :, KNEE], axis=-1), typical_thigh,
                                atol=2e-3)
-    live = pv.LivePelvis(leg_length_m=leg)
-    out = [live.place(pv.moved_pose(p, rot.T, -(rot.T @ t)), floor) for p in tracked]
-    live_pts = np.stack([floor.to_walker(p.points) for p in out]) @ FLIP
+    live_pts = _placed_live(pv.LivePelvis(leg_length_m=leg), tracked)
     np.testing.assert_allclose(np.linalg.norm(live_pts[:, :, HIP] - live_pts[:, :, KNEE], axis=-1),
                                pv.THIGH_SHARE * legs, atol=2e-3)
     assert float(np.abs(live_pts[inner][:, :, HIP, 2] - hip_z).mean()) < 0.015
