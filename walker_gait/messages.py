@@ -22,6 +22,7 @@ from numpy.typing import NDArray
 from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 
 from walker_gait.core.types import (
+    ANKLE,
     HEEL,
     JOINT_NAMES,
     LEG_POINTS,
@@ -348,6 +349,8 @@ def make_leg_track(pose: LegPose, header: Any, *, particle_count: int = 0) -> An
     for j, name in enumerate(LEG_POINTS):  # the message's point fields are named as LEG_POINTS
         kwargs[name] = _side_points(pose.points[:, j])
     kwargs["heel_tracked"] = _side_points(pose.points[:, HEEL] if pose.heel_tracked is None else pose.heel_tracked)
+    kwargs["ankle_tracked"] = _side_points(pose.points[:, ANKLE] if pose.ankle_tracked is None
+                                           else pose.ankle_tracked)
     for si, seg in enumerate(SEGMENTS):
         kwargs[f"{seg}_proximal"] = _side_points(segs[:, si, 0])
         kwargs[f"{seg}_distal"] = _side_points(segs[:, si, 1])
@@ -358,10 +361,10 @@ def make_leg_track(pose: LegPose, header: Any, *, particle_count: int = 0) -> An
 
 
 def leg_pose_from_track(msg: Any) -> LegPose:
-    """Rebuild a :class:`LegPose` (points, segments, radii, visibility, status, the tracker's own heels) from a
-    ``LegTrack``: the points are the message's reported ones (its ``LEG_POINTS`` fields), not its segments' ends;
-    ``heel_tracked`` where the message's differ from its reported heels (:meth:`LegPose.as_tracked` is what the gait
-    analysis reads)."""
+    """Rebuild a :class:`LegPose` (points, segments, radii, visibility, status, the tracker's own heels and ankles)
+    from a ``LegTrack``: the points are the message's reported ones (its ``LEG_POINTS`` fields), not its segments'
+    ends; ``heel_tracked`` and ``ankle_tracked`` where the message's differ from its reported heels and ankles
+    (:meth:`LegPose.as_tracked` is what the gait analysis reads)."""
     segs = np.empty((2, 3, 2, 3))
     radii = np.empty((2, 3, 2))
     vis = np.empty((2, 3))
@@ -376,13 +379,10 @@ def leg_pose_from_track(msg: Any) -> LegPose:
     for s in range(2):
         for j, name in enumerate(LEG_POINTS):
             points[s, j] = _xyz(getattr(msg, name)[s])
-    # the tracker's own heels (a message recorded before the field existed has none: its heels are the tracker's)
-    tracked = getattr(msg, "heel_tracked", None)
-    heel_tracked = None
-    if tracked is not None and len(tracked) == 2:
-        heel_tracked = np.stack([_xyz(tracked[s]) for s in range(2)])
-        if np.array_equal(heel_tracked, points[:, HEEL], equal_nan=True):
-            heel_tracked = None
+    # the tracker's own heels and ankles (a message recorded before the fields existed has none: its points are the
+    # tracker's)
+    heel_tracked = _tracked_points(msg, "heel_tracked", points[:, HEEL])
+    ankle_tracked = _tracked_points(msg, "ankle_tracked", points[:, ANKLE])
     return LegPose(
         stamp=stamp_to_s(msg.header.stamp),
         points=points,
@@ -393,7 +393,18 @@ def leg_pose_from_track(msg: Any) -> LegPose:
         confidence=float(msg.confidence),
         ess=float(msg.effective_sample_size),
         heel_tracked=heel_tracked,
+        ankle_tracked=ankle_tracked,
     )
+
+
+def _tracked_points(msg: Any, field: str, reported: NDArray[np.float64]) -> NDArray[np.float64] | None:
+    """A ``LegTrack``'s ``field`` (the tracker's own points of one kind) as ``(2, 3)``; None where the message has no
+    such field or it equals the ``reported`` points (nothing moved them)."""
+    tracked = getattr(msg, field, None)
+    if tracked is None or len(tracked) != 2:
+        return None
+    out = np.stack([_xyz(tracked[s]) for s in range(2)])
+    return None if np.array_equal(out, reported, equal_nan=True) else out
 
 
 _SIDE_RGBA = {Side.LEFT: (0.12, 0.47, 0.71, 0.8), Side.RIGHT: (0.84, 0.15, 0.16, 0.8)}

@@ -61,8 +61,10 @@ NODE_PARAMS: dict[str, list[tuple[str, Any, str]]] = {
                                  "(or that is under a trouser hem, the calves a tube of loose fabric: then the shoe "
                                  "at least the typical adult's 0.26 m, the hem hides its back) "
                                  "behind its toe at the median foot length so far, at the pitch and heading its "
-                                 "shoe shows (the tracker's heels in `leg_track`'s `heel_tracked`, which the gait "
-                                 "analyzer reads; `walker_gait.core.pelvis`; 0 = as tracked, the shoes not measured)"),
+                                 "shoe shows, and its ankle halfway to where the leg model puts it in that foot "
+                                 "(the tracker's heels and ankles in `leg_track`'s `heel_tracked` and "
+                                 "`ankle_tracked`, which the gait analyzer reads; `walker_gait.core.pelvis`; 0 = as "
+                                 "tracked, the shoes not measured)"),
         ("leg_length_m", 0.0, "m; the user's measured leg length (the hip joint centre's standing height above the "
                               "floor: floor to greater trochanter; only the stature known: about 0.53 of it): with the "
                               "pelvis placed, the published thighs and "

@@ -43,11 +43,26 @@ def _walk(n: int = 90, fps: float = 30.0, *, lean_deg: float = 0.0,
     return poses, np.stack(states)
 
 
-def _assert_same_feet(after: np.ndarray, before: np.ndarray) -> None:
-    """The ankles and toes of ``after`` are those of ``before`` bit for bit, the heels to rounding (their feet are of
-    one length already, so moving the heels to the track's foot length leaves them)."""
-    np.testing.assert_array_equal(after[..., [ANKLE, TOE], :], before[..., [ANKLE, TOE], :])
+def _assert_same_feet(after: np.ndarray, before: np.ndarray, *, toe_atol: float = 0.0) -> None:
+    """The toes of ``after`` (body frame) are those of ``before`` bit for bit, the heels to rounding (their feet are
+    of one length already, so moving the heels to the track's foot length leaves them), and the ankles the tracked
+    ones moved :data:`~walker_gait.core.pelvis.FOOT_ANKLE_WEIGHT` of the way to where the leg model puts the ankle in
+    that foot: the model's feet's own ankles but for the foot's roll, which heel and toe do not show (a few mm)."""
     np.testing.assert_allclose(after[..., HEEL, :], before[..., HEEL, :], atol=1e-12)
+    _assert_placed_ankles(after, before, toe_atol=toe_atol)
+    assert np.abs(after[..., ANKLE, :] - before[..., ANKLE, :]).max() < 0.005
+
+
+def _assert_placed_ankles(after: np.ndarray, before: np.ndarray, *, atol: float = 1e-12,
+                          toe_atol: float = 0.0) -> None:
+    """The toes of ``after`` (body frame, ``(..., 5, 3)``) are those of ``before`` (bit for bit unless ``toe_atol``:
+    poses moved between frames and back) and each ankle is the tracked one moved
+    :data:`~walker_gait.core.pelvis.FOOT_ANKLE_WEIGHT` of the way to where the leg model puts the ankle in the reported
+    foot (:func:`~walker_gait.core.pelvis.foot_ankle` of the reported heel and toe)."""
+    np.testing.assert_allclose(after[..., TOE, :], before[..., TOE, :], rtol=0.0, atol=toe_atol)
+    w = pv.FOOT_ANKLE_WEIGHT
+    expected = (1.0 - w) * before[..., ANKLE, :] + w * pv.foot_ankle(after[..., HEEL, :], after[..., TOE, :])
+    np.testing.assert_allclose(after[..., ANKLE, :], expected, atol=atol)
 
 
 def _ahead(points: np.ndarray) -> float:
@@ -233,7 +248,8 @@ def test_reported_poses_place_the_pelvis_in_the_walker_frame() -> None:
                            pelvis_window_s=1.0)
     want = pv.place_poses(walker_poses, window_s=1.0)
     np.testing.assert_allclose([floor.to_walker(p.points) for p in shown], [p.points for p in want], atol=1e-9)
-    np.testing.assert_allclose([p.points[:, ANKLE:] for p in shown], [p.points[:, ANKLE:] for p in cam], atol=1e-12)
+    _assert_same_feet(np.stack([floor.to_walker(p.points) for p in shown]) @ FLIP,
+                      np.stack([p.points for p in walker_poses]) @ FLIP, toe_atol=1e-12)
     assert np.abs(np.stack([body.to_body(p.points)[:, HIP] for p in shown])
                   - np.stack([body.to_body(p.points)[:, HIP] for p in cam])).max() > 0.03
     for kwargs in ({"floors": None, "pelvis_window_s": 1.0}, {"floors": [floor] * len(cam), "pelvis_window_s": 0.0}):
@@ -282,11 +298,14 @@ def test_the_hips_are_reported_a_typical_adults_width_apart() -> None:
 
     np.testing.assert_allclose(np.linalg.norm(tracked_pts[:, 0, HIP] - tracked_pts[:, 1, HIP], axis=-1), 0.14)
     assert across(tracked_pts).mean() > 0.015
-    for placed in (np.stack([p.points for p in pv.place_poses(tracked)]) @ FLIP,
-                   _placed_live(pv.LivePelvis(), tracked)):
+    offline = np.stack([p.points for p in pv.place_poses(tracked)]) @ FLIP
+    live = _placed_live(pv.LivePelvis(), tracked)
+    for placed in (offline, live):
         np.testing.assert_allclose(np.linalg.norm(placed[:, 0, HIP] - placed[:, 1, HIP], axis=-1), 0.18, atol=1e-9)
         assert across(placed).mean() < 0.005
-        np.testing.assert_allclose(placed[:, :, [ANKLE, TOE]], tracked_pts[:, :, [ANKLE, TOE]], atol=1e-9)
+    _assert_placed_ankles(offline, tracked_pts, atol=1e-9, toe_atol=1e-9)
+    # live, no shoe measures: the heels, ankles and toes the tracker's
+    np.testing.assert_allclose(live[:, :, ANKLE:], tracked_pts[:, :, ANKLE:], rtol=0.0, atol=1e-9)
 
 
 def test_unmeasured_legs_are_a_typical_adults_not_the_models_mean() -> None:
@@ -360,6 +379,57 @@ def test_a_measured_leg_length_puts_the_hips_at_their_height() -> None:
     np.testing.assert_allclose(np.linalg.norm(live_pts[:, :, HIP] - live_pts[:, :, KNEE], axis=-1),
                                pv.THIGH_SHARE * legs, atol=2e-3)
     assert float(np.abs(live_pts[inner][:, :, HIP, 2] - hip_z).mean()) < 0.015
+
+
+def test_foot_ankle_is_the_models_ankle_in_a_foot_without_roll() -> None:
+    """:func:`foot_ankle` puts the ankle where the leg model has it in a foot from its heel and toe: exactly for a
+    model foot without roll, flat or pitched either way; a few mm off for one rolled by the hip's abduction and the
+    ankle's inversion; NaN for a foot of no length or standing upright."""
+    x = _state([20, 0, 0, 35, -15, 0, -10, 0, 0, 15, 10, 0])  # left heel up, right toe up, no roll
+    pts = lm.forward_kinematics(x).points[0]
+    np.testing.assert_allclose(pv.foot_ankle(pts[:, HEEL], pts[:, TOE]), pts[:, ANKLE], atol=1e-12)
+    rolled = lm.forward_kinematics(_state([20, 5, 3, 35, -15, 4, -10, 2, 0, 15, 10, 0])).points[0]
+    off = np.linalg.norm(pv.foot_ankle(rolled[:, HEEL], rolled[:, TOE]) - rolled[:, ANKLE], axis=-1)
+    assert np.all(off > 1e-3) and np.all(off < 0.01)
+    flat = pv.foot_ankle(np.array([0.1, 0.2, 0.0]), np.array([0.1, 0.45, 0.0]))  # a 25 cm foot along +y
+    np.testing.assert_allclose(flat, [0.1, 0.2 + lm.HEEL_BACK * 0.25, lm.ANKLE_HEIGHT * 0.25], atol=1e-12)
+    assert np.all(np.isnan(pv.foot_ankle(np.zeros(3), np.zeros(3))))
+    assert np.all(np.isnan(pv.foot_ankle(np.zeros(3), np.array([0.0, 0.0, 0.25]))))
+
+
+def test_an_ankle_is_reported_halfway_to_where_the_placed_foot_puts_it() -> None:
+    """The tracker's ankle and the one the reported foot puts at the model's place in it err apart (it is fitted to
+    the calf as well): a track whose ankles sit 3 cm above and 2 cm behind where its feet put them is reported with
+    them :data:`FOOT_ANKLE_WEIGHT` of the way there, offline and live (once the shoe shows its heel), the knees about
+    the typical calf's length above them, and the ankles as tracked kept live for the gait analysis
+    (``ankle_tracked``)."""
+    assert pv.FOOT_ANKLE_WEIGHT == 0.5
+    x = _state([0, 0, 0, 5, 5, 0, 0, 0, 0, 5, 5, 0])  # standing, the feet flat and without roll
+    poses = [LegPose(stamp=i / 30.0, points=lm.forward_kinematics(x).points[0] @ FLIP, angles=lm.joint_angles(x),
+                     segments=np.zeros((2, 3, 2, 3))) for i in range(40)]
+    true_pts = np.stack([p.points for p in poses]) @ FLIP
+    assert np.all(true_pts[:, :, [HEEL, TOE], 2] < pv.SHOE_FLAT_HEIGHT_M)
+    shift = np.array([-0.02, 0.0, 0.03])  # body frame: behind (towards the heel) and up
+    tracked = []
+    for p, pts in zip(poses, true_pts):
+        moved = pts.copy()
+        moved[:, ANKLE] += shift
+        tracked.append(dataclasses.replace(pv.with_points(p, moved @ FLIP), shoe_rise=np.full(2, 0.25)))
+    want = true_pts[:, :, ANKLE] + (1.0 - pv.FOOT_ANKLE_WEIGHT) * shift
+    offline = np.stack([p.points for p in pv.place_poses(tracked)]) @ FLIP
+    np.testing.assert_allclose(offline[:, :, ANKLE], want, atol=1e-9)
+    # the knees about the typical calf above them (the re-solve's least squares with the feet held) and near the
+    # true ones, which the track had
+    np.testing.assert_allclose(np.linalg.norm(offline[:, :, KNEE] - offline[:, :, ANKLE], axis=-1),
+                               pv.TYPICAL_THIGH_CALF_M[1], atol=0.01)
+    assert np.abs(offline[:, :, KNEE] - true_pts[:, :, KNEE]).max() < 0.015
+    given, out, live = _live(tracked)
+    shown = np.array([o.ankle_tracked is not None for o in out])
+    assert shown[pv.SHOE_FLAT_FRAMES:].all() and not shown[0]
+    np.testing.assert_allclose(live[shown][:, :, ANKLE], want[shown], atol=1e-6)
+    np.testing.assert_allclose(live[~shown][:, :, ANKLE], true_pts[~shown][:, :, ANKLE] + shift, atol=1e-6)
+    for g, o in zip(given, out):
+        np.testing.assert_array_equal(o.as_tracked().points[:, ANKLE], g.points[:, ANKLE])
 
 
 def test_a_leg_length_must_be_in_metres_within_an_adults_range() -> None:
@@ -462,7 +532,7 @@ def test_a_track_is_reported_with_one_length_of_each_segment() -> None:
     want = np.stack([p.points for p in pv.place_poses(clean)]) @ FLIP
     for track in (slice(0, 45), slice(46, 90)):
         b, a, w = before[track], after[track], want[track]
-        np.testing.assert_array_equal(a[:, :, [ANKLE, TOE]], b[:, :, [ANKLE, TOE]])
+        _assert_placed_ankles(a, b)
         calf_b, foot_b = _lengths(b)
         assert foot_b.std() > 0.015 and calf_b.std() > 0.02  # as tracked: wandering
         np.testing.assert_allclose(a[:, :, HEEL], w[:, :, HEEL], atol=1e-9)  # the median is the true length
@@ -522,7 +592,7 @@ def test_a_shoe_under_a_trouser_hem_is_reported_at_least_the_typical_shoes_lengt
         tracked = _shod(walk, longer=longer, calf_radius=radius)
         before = np.stack([p.points for p in tracked]) @ FLIP
         after = np.stack([p.points for p in pv.place_poses(tracked)]) @ FLIP
-        np.testing.assert_array_equal(after[:, :, [ANKLE, TOE]], before[:, :, [ANKLE, TOE]])
+        _assert_placed_ankles(after, before)
         np.testing.assert_allclose(_lengths(after)[1], want, atol=1e-9)
     # live: a shoe shown cleanly (a steady rise of its upper on flat frames) has its heel placed at the tracked
     # length, from its calibration on; under a hem, never shown cleanly, both heels from the first frame at the
@@ -536,7 +606,9 @@ def test_a_shoe_under_a_trouser_hem_is_reported_at_least_the_typical_shoes_lengt
         assert placed.all() if radius > lo else (placed[pv.SHOE_FLAT_FRAMES:].all() and not placed[0])
         np.testing.assert_allclose(_lengths(after[placed])[1], want, atol=1e-6)
         for g, o in zip(given, out):
-            np.testing.assert_array_equal(o.points[:, [ANKLE, TOE]], g.points[:, [ANKLE, TOE]])
+            np.testing.assert_array_equal(o.points[:, TOE], g.points[:, TOE])
+            np.testing.assert_array_equal(o.as_tracked().points[:, ANKLE:], g.points[:, ANKLE:])
+        _assert_placed_ankles(after[placed], _body(given)[placed], atol=1e-9, toe_atol=1e-9)
     _, plain, _ = _live(_shod(stand, longer=-0.05, calf_radius=0.06))  # no hem, no shoe shown: as tracked
     assert all(o.heel_tracked is None for o in plain)
 
@@ -584,7 +656,7 @@ def test_a_heel_is_reported_at_the_pitch_its_shoe_upper_shows() -> None:
     want = toe + length * np.column_stack([np.cos(p) * heading, np.full(len(toe), np.sin(p))])
     assert np.abs(after[n // 2:, 0, HEEL] - want).max() < 0.003
     assert np.abs(plain[n // 2:, 0, HEEL] - want).max() > 0.04  # as tracked: 12 deg too flat, 5 cm off
-    np.testing.assert_array_equal(after[..., [ANKLE, TOE], :], before[..., [ANKLE, TOE], :])
+    _assert_placed_ankles(after, before)
     assert np.abs(after[:, 1, HEEL] - plain[:, 1, HEEL]).max() < 0.002  # the flat right foot: as before
     # the angles are solved for the reported points: the ankle more plantarflexed with the heel up (the ankle point
     # held where tracked keeps the solved foot between the two pitches)
@@ -688,7 +760,7 @@ def test_a_flat_foot_is_reported_along_the_heading_its_shoe_shows() -> None:
                                atol=1e-6)
     np.testing.assert_allclose(heel[:, 2], plain[:, 0, HEEL, 2], atol=1e-3)
     assert np.abs(plain[:, 0, HEEL, :2] - heel[:, :2]).max() > 0.02  # as tracked: 3 cm to the side
-    np.testing.assert_array_equal(after[..., [ANKLE, TOE], :], plain[..., [ANKLE, TOE], :])
+    _assert_placed_ankles(after, np.stack([p.points for p in tracked]) @ FLIP)
     assert np.abs(after[:, 1, HEEL] - plain[:, 1, HEEL]).max() < 0.002  # the right foot: as before
     # a swaying line; a foot off the floor; five flat frames: as tracked
     swaying = [dataclasses.replace(p, shoe_turn=t + rng.normal(0.0, np.radians(5.0), 2)) for p, t in zip(tracked, turn)]
@@ -819,6 +891,12 @@ def test_a_foot_standing_on_its_heel_is_reported_with_the_heel_on_the_floor() ->
     assert pv.HEEL_ON_FLOOR_M > 0.015
 
 
+def _body(camera: list[LegPose]) -> np.ndarray:
+    """The points of poses in the camera frame of :func:`_floor` in the body frame."""
+    floor = _floor()
+    return np.stack([floor.to_walker(p.points) for p in camera]) @ FLIP
+
+
 def _live(poses: list[LegPose]) -> tuple[list[LegPose], list[LegPose], np.ndarray]:
     """``poses`` (walker frame) given to a fresh :class:`LivePelvis` in the camera frame of :func:`_floor`, frame by
     frame: the camera-frame poses given and placed, and the placed points in the body frame.  Each frame's hips are
@@ -855,8 +933,12 @@ def test_live_heels_are_placed_causally_where_the_shoe_shows_them() -> None:
     assert np.abs(before[n // 2:, 0, HEEL] - offline[n // 2:, 0, HEEL]).max() > 0.04  # as tracked: 5 cm off
     early = pv.SHOE_FLAT_FRAMES - 1  # frames before the shoe is calibrated
     for g, o in zip(given, out):
-        np.testing.assert_array_equal(o.points[:, [ANKLE, TOE]], g.points[:, [ANKLE, TOE]])
+        np.testing.assert_array_equal(o.points[:, TOE], g.points[:, TOE])
         np.testing.assert_array_equal(o.as_tracked().points[:, 2:], g.points[:, 2:])
+    # the ankles of the feet whose heels moved are moved towards the placed foot's, the others the tracker's
+    assert all((o.ankle_tracked is None) == (o.heel_tracked is None) for o in out)
+    assert all(np.array_equal(o.points[:, ANKLE], g.points[:, ANKLE]) for g, o in zip(given[:early], out[:early]))
+    _assert_placed_ankles(after[early:], _body(given)[early:], atol=1e-9, toe_atol=1e-9)
     assert all(o.heel_tracked is None and np.array_equal(o.points[:, HEEL], g.points[:, HEEL])
                for g, o in zip(given[:early], out[:early]))
     assert all(o.heel_tracked is not None for o in out[early:])

@@ -5,13 +5,27 @@ from __future__ import annotations
 import dataclasses
 import importlib
 import math
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
 from rclpy.serialization import deserialize_message, serialize_message
 
 from walker_gait import messages as M
-from walker_gait.core.types import EventKind, FloorPlane, GaitEvent, LegPose, Side, Step, TrackStatus
+from walker_gait.core.types import (
+    ANKLE,
+    HEEL,
+    HIP,
+    KNEE,
+    TOE,
+    EventKind,
+    FloorPlane,
+    GaitEvent,
+    LegPose,
+    Side,
+    Step,
+    TrackStatus,
+)
 
 
 def rclpy_cls(typename: str):
@@ -115,7 +129,8 @@ def test_leg_track_round_trips_a_pose() -> None:
     np.testing.assert_allclose(back.visibility, pose.visibility, rtol=1e-6)
     np.testing.assert_allclose(back.radii, pose.radii, rtol=1e-6)
     assert back.stamp == pytest.approx(3.5)
-    assert back.heel_tracked is None and back.as_tracked() is back  # the heels as tracked: nothing moved them
+    assert back.heel_tracked is None and back.ankle_tracked is None  # as tracked: nothing moved them
+    assert back.as_tracked() is back
 
 
 def test_leg_track_carries_the_trackers_heels_beside_the_placed_ones() -> None:
@@ -133,6 +148,29 @@ def test_leg_track_carries_the_trackers_heels_beside_the_placed_ones() -> None:
     np.testing.assert_allclose(analysed.points[:, 3], tracked, atol=1e-12)
     np.testing.assert_array_equal(np.delete(analysed.points, 3, axis=1), np.delete(back.points, 3, axis=1))
     assert analysed.heel_tracked is None
+
+
+def test_leg_track_carries_the_trackers_ankles_beside_the_placed_ones() -> None:
+    """The placement moves the reported ankles towards the placed foot's (LivePelvis); the message keeps the tracker's
+    in ``ankle_tracked``, and the pose rebuilt from it gives them and the tracker's heels back to the gait analysis
+    (``as_tracked``); a message without the field (recorded before it existed) reads as nothing moved."""
+    rng = np.random.default_rng(2)
+    points = rng.normal(size=(2, 5, 3))
+    heels = points[:, HEEL] + np.array([0.03, 0.0, -0.01])
+    ankles = points[:, ANKLE] + np.array([0.0, 0.01, 0.02])
+    pose = LegPose(stamp=2.0, points=points, heel_tracked=heels, ankle_tracked=ankles)
+    msg = M.deserialize(M.serialize(M.make_leg_track(pose, M.make_header(2.0, "c"))), M.LEG_TRACK)
+    back = M.leg_pose_from_track(msg)
+    np.testing.assert_allclose(back.points, points, atol=1e-12)
+    np.testing.assert_allclose(back.ankle_tracked, ankles, atol=1e-12)
+    analysed = back.as_tracked()
+    np.testing.assert_allclose(analysed.points[:, ANKLE], ankles, atol=1e-12)
+    np.testing.assert_allclose(analysed.points[:, HEEL], heels, atol=1e-12)
+    np.testing.assert_array_equal(analysed.points[:, [HIP, KNEE, TOE]], back.points[:, [HIP, KNEE, TOE]])
+    assert analysed.ankle_tracked is None and analysed.heel_tracked is None
+    old = SimpleNamespace(**{f.name: getattr(msg, f.name) for f in dataclasses.fields(msg) if f.name != "ankle_tracked"})
+    assert not hasattr(old, "ankle_tracked")
+    assert M.leg_pose_from_track(old).ankle_tracked is None
 
 
 def test_pointcloud2_round_trip_organised_and_dense() -> None:

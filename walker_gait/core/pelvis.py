@@ -15,7 +15,7 @@ back and forth in that window) and turned to the feet's heading over that window
 unobserved as its place: 5-10 deg RMS off on the synthetic sessions, where the true one keeps within 2-3 deg of the
 feet's heading), the root height and the legs' joint angles but the ankle inversions are solved again
 (damped Gauss-Newton) so that each leg's knee, ankle, heel and toe stay where they were tracked, and the hips and the
-knees are reported from that solution, the ankles and toes as tracked (the heels below).  The thighs follow the
+knees are reported from that solution, the toes as tracked (the heels and ankles below).  The thighs follow the
 pelvis; the steps and the events are unchanged.  The angles are solved for the reported points themselves (which the
 tracker reports as a weighted mean over its particles, with the toe measured from the data and flat feet levelled),
 so they describe the pose the points show.
@@ -27,9 +27,11 @@ is 1.2-1.6 cm): the placement reports each track with one length of each, the me
 adult's: :func:`shoe_length`), the typical adult's for the thigh and the calf, which the camera does not see
 (:data:`TYPICAL_THIGH_CALF_M`), each knee moved along its tracked calf to the calf's length and each heel along its
 tracked foot (from the seen toe) to the shoe's length (live only a heel whose shoe the track has shown cleanly:
-:meth:`LivePelvis.place`).  The gait analysis reads the heels as tracked: live the placed pose keeps them as
-``LegPose.heel_tracked`` (``LegTrack.heel_tracked``), so that the live steps stay those of ``walker-gait process
---passes forward``.
+:meth:`LivePelvis.place`).  Each foot whose heel is placed so has its ankle reported halfway
+(:data:`FOOT_ANKLE_WEIGHT`) between the tracker's and where the leg model puts the ankle in the placed foot
+(:func:`foot_ankle`), its knee moved along the calf with it.  The gait analysis reads the heels and ankles as
+tracked: live the placed pose keeps them as ``LegPose.heel_tracked`` and ``ankle_tracked`` (``LegTrack``'s), so
+that the live steps stay those of ``walker-gait process --passes forward``.
 
 The heel is hidden behind the shoe, so where it stands is the toe's place, the shoe's length and the foot's pitch;
 the tracker holds a foot in its heel rise or swing several degrees off its pitch (its foot is fitted to the whole
@@ -93,6 +95,7 @@ __all__ = [
     "WALK_SWING_M",
     "calf_radii",
     "check_leg_length",
+    "foot_ankle",
     "held_points",
     "hemmed",
     "lean",
@@ -187,6 +190,17 @@ few millimetres up, and the shoe's rise reads a landing foot's toe-up pitch shor
 clean sessions, more the steeper the landing): the heel of a flat foot was reported 0.6 cm up and a landing one's
 1.6 cm.  A foot about to land, its heel a few centimetres up with its toe higher, is put down a frame or two early.
 DEVELOPERS.md, sixty-second session."""
+FOOT_ANKLE_WEIGHT = 0.5
+"""Weight of the ankle where the leg model puts it in the placed foot (:func:`foot_ankle` of the reported heel and
+toe) against the tracker's own in the reported ankle of each foot whose heel is placed (0: the tracker's).  The
+two are estimates of one joint with errors of a size and largely apart: the tracker's ankle is fitted to the whole
+leg's data (the calf's points pull it), the foot's is the better measured toe, shoe length and pitch with the
+model's offsets.  On the synthetic sweeps (eighty-seventh session's stored runs re-reported, good frames) the
+tracker's ankles were 2.42 / 2.29 / 2.38 cm off (sets C / A / B3), the foot's 2.11 / 2.03 / 2.05, their mean 1.89 /
+1.77 / 1.91 (a weight of 0.75: 1.91 / 1.80 / 1.90); better in every scenario of the three sets.  The synthetic
+ankle sits exactly at the model's offsets, a real one's place in a shoe varies with the foot and the shoe: with the
+true ankle moved 1 cm within the foot either way, the mean stayed better than the tracker's alone (2.00-2.36 against
+2.39-2.84 cm on set C).  Equal weights, not fitted: DEVELOPERS.md, ninetieth session."""
 SHOE_TURN_JUMP = math.radians(2.0)
 """Largest median change (rad) of a shoe's measured heading from one flat frame to the next for its centre line to
 be taken as the foot's heading (:func:`shoe_heading`): a planted foot does not turn, and a shoe seen clearly gives
@@ -461,7 +475,9 @@ def with_lengths(states: FloatArray, held: FloatArray, *, thigh: float | FloatAr
     ``foot_pitch`` ``(F, 2)`` (rad, the heel-to-toe line's elevation: negative heel-up) is finite, behind the toe along
     the tracked foot's heading at that pitch; where ``foot_heading`` ``(F, 2)`` (rad, the heel-to-toe line's azimuth
     in the floor's plane) is finite, behind the toe along that heading (at the pitch given, else the tracked
-    foot's); with ``heel_sides`` ``(F, 2)`` only those heels move (the others stay as held)."""
+    foot's), and the ankle of each foot whose heel moved :data:`FOOT_ANKLE_WEIGHT` of the way to where the leg model
+    puts it in that foot (:func:`foot_ankle`), the knee along the calf from it; with ``heel_sides`` ``(F, 2)`` only
+    those heels and ankles move (the others stay as held)."""
     x = np.array(states, dtype=np.float64, copy=True)
     h = np.array(held, dtype=np.float64, copy=True)
     x[:, L.LEN_THIGH] = thigh
@@ -469,7 +485,6 @@ def with_lengths(states: FloatArray, held: FloatArray, *, thigh: float | FloatAr
     if foot is not None:
         x[:, L.LEN_FOOT] = foot
     x = lm.clip_to_limits(x)
-    h[:, :, 0] = _along(h[:, :, 1], h[:, :, 0], x[:, L.LEN_CALF], _UP)
     if foot is not None:
         toward = h[:, :, 2]
         if foot_heading is not None:
@@ -488,9 +503,33 @@ def with_lengths(states: FloatArray, held: FloatArray, *, thigh: float | FloatAr
             aimed = h[:, :, 3] + np.concatenate([np.cos(p) * flat, -np.sin(p)], axis=-1)  # one metre behind the toe
             toward = np.where(np.isfinite(pitch)[..., None], aimed, toward)
         moved = _on_heel(h[:, :, 3], _along(h[:, :, 3], toward, x[:, L.LEN_FOOT], _BACK))
-        h[:, :, 2] = moved if heel_sides is None else np.where(
-            np.asarray(heel_sides, dtype=bool).reshape(len(x), 2)[..., None], moved, h[:, :, 2])
+        sides = np.ones((len(x), 2), dtype=bool) if heel_sides is None else np.asarray(
+            heel_sides, dtype=bool).reshape(len(x), 2)
+        h[:, :, 2] = np.where(sides[..., None], moved, h[:, :, 2])
+        if FOOT_ANKLE_WEIGHT > 0:
+            ankle = (1.0 - FOOT_ANKLE_WEIGHT) * h[:, :, 1] + FOOT_ANKLE_WEIGHT * foot_ankle(h[:, :, 2], h[:, :, 3])
+            h[:, :, 1] = np.where(sides[..., None] & np.isfinite(ankle), ankle, h[:, :, 1])
+    h[:, :, 0] = _along(h[:, :, 1], h[:, :, 0], x[:, L.LEN_CALF], _UP)
     return x, h
+
+
+def foot_ankle(heel: FloatArray, toe: FloatArray) -> FloatArray:
+    """``(..., 3)``: the ankle joint centre where the leg model puts it in a foot from ``heel`` to ``toe`` (body
+    frame, z up): :data:`~walker_gait.core.leg_model.HEEL_BACK` of the foot's length ahead of the heel along the
+    foot and :data:`~walker_gait.core.leg_model.ANKLE_HEIGHT` of it above the sole, in the vertical plane through
+    the foot (the foot's roll, which heel and toe do not show, taken as none); NaN where heel and toe coincide or
+    the foot stands upright."""
+    d = np.asarray(toe, dtype=np.float64) - np.asarray(heel, dtype=np.float64)
+    length = np.linalg.norm(d, axis=-1, keepdims=True)
+    run = np.linalg.norm(d[..., :2], axis=-1, keepdims=True)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        along = d / length
+        flat = d[..., :2] / run  # the foot's heading in the floor's plane
+        # up in the foot's vertical plane, square to the foot: (-sin p * heading, cos p) for the foot's pitch p
+        up = np.concatenate([-along[..., 2:3] * flat, run / length], axis=-1)
+    ok = (length > 1e-9) & (run > 1e-9)
+    out = heel + lm.HEEL_BACK * length * along + lm.ANKLE_HEIGHT * length * up
+    return np.where(ok, out, np.nan)
 
 
 def _on_heel(toe: FloatArray, heel: FloatArray) -> FloatArray:
@@ -850,8 +889,9 @@ class LivePelvis:
         the tracked feet, at :func:`shoe_length`'s length: at least the typical shoe's, not the tracker's short one
         (at the tracked median the heels under baggy trousers were 0.5 cm worse placed, DEVELOPERS.md, sixty-first
         session; at this length 0.3-0.7 cm better, seventy-first).  Other heels stay the tracker's.
-        The toes and ankles stay the tracker's bit for bit, and a pose whose heels moved keeps the tracker's as
-        ``heel_tracked`` (what the gait analysis reads, :meth:`LegPose.as_tracked`)."""
+        A foot whose heel is placed has its ankle placed too (:data:`FOOT_ANKLE_WEIGHT`); the toes and the other
+        ankles stay the tracker's bit for bit, and a pose whose heels and ankles moved keeps the tracker's as
+        ``heel_tracked`` and ``ankle_tracked`` (what the gait analysis reads, :meth:`LegPose.as_tracked`)."""
         if not _placeable(pose) or not floor.usable:
             if pose.status in (TrackStatus.NO_USER, TrackStatus.SEARCHING):
                 self.reset()
@@ -863,7 +903,7 @@ class LivePelvis:
             # the tracker held its last pose (a blanked view): so is the placed one
             held = self._last[1]
             return dataclasses.replace(with_points(pose, np.array(held.points, dtype=np.float64), angles=held.angles),
-                                       heel_tracked=held.heel_tracked)
+                                       heel_tracked=held.heel_tracked, ankle_tracked=held.ankle_tracked)
         rot, t = floor.walker_transform()
         walker = moved_pose(pose, rot, t)
         sample = support_sample(np.asarray(walker.points, dtype=np.float64) @ self._flip.T)
@@ -894,14 +934,18 @@ class LivePelvis:
             lengths[2] = np.nan  # every heel as tracked
         new, placed = _solve(body[None], np.asarray(pose.angles)[None], target[None], self.leg_length_m,
                              lengths[None], pitch[None], heading[None], heel_sides=clean[None])
-        # the new hips, knees and placed heels back in the camera frame; the ankles, toes and other heels stay the
-        # tracker's bit for bit
+        # the new hips, knees and placed heels and ankles back in the camera frame; the toes and the other heels
+        # and ankles stay the tracker's bit for bit
         pts = np.array(pose.points, dtype=np.float64, copy=True)
         pts[:, [HIP, KNEE]] = (placed[0][:, [HIP, KNEE]] @ self._flip - t) @ rot
         pts[clean, HEEL] = (placed[0][clean, HEEL] @ self._flip - t) @ rot
+        pts[clean, ANKLE] = (placed[0][clean, ANKLE] @ self._flip - t) @ rot
         out = with_points(pose, pts, angles=lm.joint_angles(new[0]))
-        if clean.any() and pose.heel_tracked is None:  # what the gait analysis reads (LegPose.as_tracked)
-            out = dataclasses.replace(out, heel_tracked=np.array(pose.points[:, HEEL], dtype=np.float64))
+        if clean.any():  # what the gait analysis reads (LegPose.as_tracked)
+            if pose.heel_tracked is None:
+                out = dataclasses.replace(out, heel_tracked=np.array(pose.points[:, HEEL], dtype=np.float64))
+            if pose.ankle_tracked is None and FOOT_ANKLE_WEIGHT > 0:
+                out = dataclasses.replace(out, ankle_tracked=np.array(pose.points[:, ANKLE], dtype=np.float64))
         self._last = (pose, out)
         return out
 
@@ -923,7 +967,7 @@ def _solve(points: FloatArray, angles: FloatArray, target: FloatArray, leg_lengt
     of ``leg_length_m`` instead if given, and each heel (of ``heel_sides`` ``(F, 2)``, if given) at ``foot_pitch`` and
     ``foot_heading`` ``(F, 2)`` where finite (:func:`with_lengths`):
     the solved states ``(F, 23)`` and the points with the solution's hips and knees, the heels moved to the foot's
-    length, the rest as given."""
+    length and the ankles with them (:func:`with_lengths`), the rest as given."""
     states = np.stack([pose_state(p, a) for p, a in zip(points, angles)])
     if TYPICAL_HIP_WIDTH_M is not None:
         states[:, L.HIP_DIST] = TYPICAL_HIP_WIDTH_M
@@ -942,7 +986,7 @@ def _solve(points: FloatArray, angles: FloatArray, target: FloatArray, leg_lengt
     new = place_pelvis(states, held, target[:, :2], yaw=target[:, 2])
     placed = np.array(points, dtype=np.float64, copy=True)
     placed[:, :, [HIP, KNEE]] = lm.forward_kinematics(new).points[:, :, [HIP, KNEE]]
-    placed[:, :, HEEL] = held[:, :, 2]
+    placed[:, :, [ANKLE, HEEL]] = held[:, :, [1, 2]]
     return new, placed
 
 

@@ -419,7 +419,8 @@ def swap_sides(pose: LegPose) -> LegPose:
     angles = np.concatenate([angles[half:], angles[:half]]) if angles.shape[-1] == 2 * half else angles.copy()
     return dataclasses.replace(pose, points=pts, angles=angles, segments=segs, radii=flipped(pose.radii),
                                visibility=flipped(pose.visibility), shoe_rise=flipped(pose.shoe_rise),
-                               shoe_turn=flipped(pose.shoe_turn), heel_tracked=flipped(pose.heel_tracked))
+                               shoe_turn=flipped(pose.shoe_turn), heel_tracked=flipped(pose.heel_tracked),
+                               ankle_tracked=flipped(pose.ankle_tracked))
 
 
 def _swapped_points(points: FloatArray) -> FloatArray:

@@ -239,15 +239,20 @@ class LegPose:
     shoe_rise: FloatArray | None = None  # (2,) [side] rad, rise of the visible shoe upper behind the toe (feet.measure_shoe_rise), NaN unmeasured
     shoe_turn: FloatArray | None = None  # (2,) [side] rad, the shoe's centre line's turn from the reported foot's heading, anticlockwise from above (feet.measure_shoe_turn), NaN unmeasured
     heel_tracked: FloatArray | None = None  # (2, 3) [side, xyz] the tracker's own heels where the reported ones (points) were placed elsewhere (pelvis.LivePelvis), what the gait analysis reads; None: the points' own
+    ankle_tracked: FloatArray | None = None  # (2, 3) [side, xyz] the tracker's own ankles where the reported ones were placed elsewhere (pelvis.LivePelvis), what the gait analysis reads; None: the points' own
 
     def as_tracked(self) -> LegPose:
-        """This pose with the tracker's own heels (``heel_tracked``) in its points: the pose the gait analysis reads
-        (the live placement moves the reported heels, the analysis reads them as tracked)."""
-        if self.heel_tracked is None:
+        """This pose with the tracker's own heels and ankles (``heel_tracked``, ``ankle_tracked``) in its points: the
+        pose the gait analysis reads (the live placement moves the reported ones, the analysis reads them as
+        tracked)."""
+        if self.heel_tracked is None and self.ankle_tracked is None:
             return self
         pts = np.array(self.points, dtype=np.float64, copy=True)
-        pts[:, HEEL] = self.heel_tracked
-        return replace(self, points=pts, heel_tracked=None)
+        if self.heel_tracked is not None:
+            pts[:, HEEL] = self.heel_tracked
+        if self.ankle_tracked is not None:
+            pts[:, ANKLE] = self.ankle_tracked
+        return replace(self, points=pts, heel_tracked=None, ankle_tracked=None)
 
     @classmethod
     def no_user(cls, stamp: float) -> LegPose:
