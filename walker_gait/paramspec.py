@@ -61,7 +61,8 @@ NODE_PARAMS: dict[str, list[tuple[str, Any, str]]] = {
                                  "(or that is under a trouser hem, the calves a tube of loose fabric: then the shoe "
                                  "at least the typical adult's 0.26 m, the hem hides its back) "
                                  "behind its toe at the median foot length so far, at the pitch and heading its "
-                                 "shoe shows, and its ankle halfway to where the leg model puts it in that foot "
+                                 "shoe shows (reported a quarter of the way back to the tracker's), and its ankle "
+                                 "halfway to where the leg model puts it in that foot "
                                  "(the tracker's heels and ankles in `leg_track`'s `heel_tracked` and "
                                  "`ankle_tracked`, which the gait analyzer reads; `walker_gait.core.pelvis`; 0 = as "
                                  "tracked, the shoes not measured)"),

@@ -15,6 +15,14 @@ from walker_gait.core.types import ANKLE, HEEL, HIP, KNEE, TOE, FloorPlane, LegP
 FLIP = np.diag([-1.0, -1.0, 1.0])  # body frame -> walker frame for a camera facing the user
 
 
+@pytest.fixture
+def placed_heels_alone(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The placed heels without the tracked ones drawn in (:data:`~walker_gait.core.pelvis.TRACKED_HEEL_WEIGHT` 0):
+    the tests of where the placement puts a heel (its length, pitch, heading, the floor) read the heel it places;
+    :func:`test_the_reported_heel_draws_the_placed_one_towards_the_tracked_one` covers the weight."""
+    monkeypatch.setattr(pv, "TRACKED_HEEL_WEIGHT", 0.0)
+
+
 def _state(angles_deg: list[float], *, root_xy: tuple[float, float] = (0.0, -0.09),
            thigh: float | None = None, calf: float | None = None) -> np.ndarray:
     x = lm.neutral_state(right_hip_xy=root_xy)
@@ -507,6 +515,7 @@ def _lengths(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
             np.linalg.norm(points[:, :, TOE] - points[:, :, HEEL], axis=-1))
 
 
+@pytest.mark.usefixtures("placed_heels_alone")
 def test_a_track_is_reported_with_one_length_of_each_segment() -> None:
     """The tracker's lengths wander from frame to frame (they are part of its state), a user's do not: placed, a track
     whose calves and shoes wander about the true lengths is reported as the same walk tracked without the wander:
@@ -572,6 +581,7 @@ def _shod(poses: list[LegPose], *, longer: float, calf_radius: float) -> list[Le
     return out
 
 
+@pytest.mark.usefixtures("placed_heels_alone")
 def test_a_shoe_under_a_trouser_hem_is_reported_at_least_the_typical_shoes_length() -> None:
     """A hem hides the back of the shoe, which the tracker then leaves out of its foot (short, never long): a track
     whose calves are a tube of loose fabric has its heels placed at least :data:`HEMMED_SHOE_M` behind their toes, a
@@ -630,6 +640,7 @@ def _stand_then_heel_up(*, tracked_pitch_deg: float, n: int = 60, fps: float = 3
     return poses
 
 
+@pytest.mark.usefixtures("placed_heels_alone")
 def test_a_heel_is_reported_at_the_pitch_its_shoe_upper_shows() -> None:
     """The tracker holds a foot in its heel rise several degrees flatter than it is (its foot is fitted to the whole
     leg's data), while the shoe's upper, the foot's best-seen surface, turns with the foot: the rise measured on the
@@ -733,6 +744,44 @@ def _heading(points: np.ndarray) -> np.ndarray:
     return np.arctan2(d[..., 1], d[..., 0])
 
 
+def test_the_reported_heel_draws_the_placed_one_towards_the_tracked_one(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The tracker's heel and the placed one err partly apart: each placed heel is reported
+    :data:`TRACKED_HEEL_WEIGHT` of the way from the placed heel (behind the toe at the shoe's pitch) back to the
+    tracked one, offline and live; the ankle is put in the placed foot before (it is the same as with the placed heel
+    alone) and the toes are the tracker's.  A heel rise the tracker holds 12 deg too flat: 5 cm off as tracked, the
+    reported heel a quarter of that."""
+    assert pv.TRACKED_HEEL_WEIGHT == 0.25
+    rng = np.random.default_rng(5)
+    tracked = _stand_then_heel_up(tracked_pitch_deg=8.0)
+    n = len(tracked)
+    rise = 0.25 + rng.normal(0.0, 0.002, (n, 2))
+    rise[n // 2:, 0] += np.radians(20.0)
+    with_rise = [dataclasses.replace(p, shoe_rise=r) for p, r in zip(tracked, rise)]
+    before = np.stack([p.points for p in tracked]) @ FLIP
+    blended = np.stack([p.points for p in pv.place_poses(with_rise)]) @ FLIP
+    _, live_out, live = _live(with_rise)
+    with monkeypatch.context() as m:
+        m.setattr(pv, "TRACKED_HEEL_WEIGHT", 0.0)
+        alone = np.stack([p.points for p in pv.place_poses(with_rise)]) @ FLIP
+        _, _, live_alone = _live(with_rise)
+    w = pv.TRACKED_HEEL_WEIGHT
+    np.testing.assert_allclose(blended[:, :, HEEL], (1.0 - w) * alone[:, :, HEEL] + w * before[:, :, HEEL], atol=1e-12)
+    np.testing.assert_allclose(blended[:, :, ANKLE], alone[:, :, ANKLE], atol=1e-12)
+    np.testing.assert_array_equal(blended[:, :, TOE], before[:, :, TOE])
+    up = slice(n // 2, None)
+    off = np.linalg.norm(alone[up, 0, HEEL] - before[up, 0, HEEL], axis=-1)
+    assert off.min() > 0.04
+    np.testing.assert_allclose(np.linalg.norm(blended[up, 0, HEEL] - alone[up, 0, HEEL], axis=-1), w * off,
+                               atol=1e-12)
+    # live: the heels the shoe has shown cleanly, the same weight; the tracker's kept for the analysis
+    placed = np.array([o.heel_tracked is not None for o in live_out])
+    assert placed[up].all()
+    np.testing.assert_allclose(live[placed][:, :, HEEL],
+                               (1.0 - w) * live_alone[placed][:, :, HEEL] + w * before[placed][:, :, HEEL], atol=1e-9)
+    np.testing.assert_allclose(live[placed][:, :, ANKLE], live_alone[placed][:, :, ANKLE], atol=1e-9)
+
+
+@pytest.mark.usefixtures("placed_heels_alone")
 def test_a_flat_foot_is_reported_along_the_heading_its_shoe_shows() -> None:
     """The tracker holds a standing foot several degrees off its heading (its yaw is the end of the leg's chain);
     the shoe's centre line measures the turn: a flat foot is reported with its heel behind the seen toe along the
@@ -826,6 +875,7 @@ def test_a_heading_is_carried_through_a_heel_rise_whose_tip_is_held_off_the_floo
     assert pv.SHOE_FLAT_HEIGHT_M < 0.03 < pv.SHOE_CARRY_TOE_M
 
 
+@pytest.mark.usefixtures("placed_heels_alone")
 def test_live_heel_rise_keeps_the_heading_its_shoe_showed_flat() -> None:
     """Live: the heel rise after a flat stance whose shoe showed its heading keeps that heading (within 0.6 deg, the
     tracker 7 deg off) while the tracker holds the toe 3 cm up, and is the tracker's again after the toe off."""
@@ -852,6 +902,7 @@ def test_live_heel_rise_keeps_the_heading_its_shoe_showed_flat() -> None:
     assert np.all(err[25:] > 5.0)
 
 
+@pytest.mark.usefixtures("placed_heels_alone")
 def test_a_foot_standing_on_its_heel_is_reported_with_the_heel_on_the_floor() -> None:
     """A reported foot whose toe is higher than its heel and whose heel is below :data:`HEEL_ON_FLOOR_M` (landed on
     its heel, or flat with its heel a little up or below the floor) has its heel turned about the toe onto the floor at
@@ -914,6 +965,7 @@ def _live(poses: list[LegPose]) -> tuple[list[LegPose], list[LegPose], np.ndarra
     return given, out, np.stack([floor.to_walker(p.points) for p in out]) @ FLIP
 
 
+@pytest.mark.usefixtures("placed_heels_alone")
 def test_live_heels_are_placed_causally_where_the_shoe_shows_them() -> None:
     """Live, frame by frame: once a foot's shoe has stood flat for :data:`SHOE_FLAT_FRAMES` frames with a steady rise,
     its heel is reported at the pitch its upper shows (a heel rise the tracker holds 12 deg too flat: as offline,
@@ -953,6 +1005,7 @@ def test_live_heels_are_placed_causally_where_the_shoe_shows_them() -> None:
                for q, p in zip(noisy, plain))
 
 
+@pytest.mark.usefixtures("placed_heels_alone")
 def test_live_flat_feet_follow_the_heading_their_shoe_shows() -> None:
     """Live: a flat foot the tracker holds 7 deg off its heading is reported along the heading its shoe's centre line
     shows once the track has :data:`SHOE_FLAT_FRAMES` flat frames of a steady line (within 0.6 deg, as offline), its
@@ -980,6 +1033,7 @@ def test_live_flat_feet_follow_the_heading_their_shoe_shows() -> None:
                for g, o in zip(given, out))
 
 
+@pytest.mark.usefixtures("placed_heels_alone")
 def test_live_a_hem_is_recognised_on_the_last_frames_calves() -> None:
     """A new track's calves start at the model's mean radius and widen to a tube of loose fabric only after a while:
     live, the hem is judged on the calves of the last :data:`LIVE_HEM_FRAMES` frames, so the heels under it are

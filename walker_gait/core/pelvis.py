@@ -27,7 +27,8 @@ is 1.2-1.6 cm): the placement reports each track with one length of each, the me
 adult's: :func:`shoe_length`), the typical adult's for the thigh and the calf, which the camera does not see
 (:data:`TYPICAL_THIGH_CALF_M`), each knee moved along its tracked calf to the calf's length and each heel along its
 tracked foot (from the seen toe) to the shoe's length (live only a heel whose shoe the track has shown cleanly:
-:meth:`LivePelvis.place`).  Each foot whose heel is placed so has its ankle reported halfway
+:meth:`LivePelvis.place`), reported a quarter of the way back to the tracked heel (:data:`TRACKED_HEEL_WEIGHT`: the
+two err partly apart).  Each foot whose heel is placed so has its ankle reported halfway
 (:data:`FOOT_ANKLE_WEIGHT`) between the tracker's and where the leg model puts the ankle in the placed foot
 (:func:`foot_ankle`), its knee moved along the calf with it.  The gait analysis reads the heels and ankles as
 tracked: live the placed pose keeps them as ``LegPose.heel_tracked`` and ``ankle_tracked`` (``LegTrack``'s), so
@@ -89,6 +90,7 @@ __all__ = [
     "STAND_LEAN_M",
     "THIGH_OF_STATURE",
     "THIGH_SHARE",
+    "TRACKED_HEEL_WEIGHT",
     "TYPICAL_HIP_WIDTH_M",
     "TYPICAL_STATURE_M",
     "WALK_LEAN_M",
@@ -190,6 +192,16 @@ few millimetres up, and the shoe's rise reads a landing foot's toe-up pitch shor
 clean sessions, more the steeper the landing): the heel of a flat foot was reported 0.6 cm up and a landing one's
 1.6 cm.  A foot about to land, its heel a few centimetres up with its toe higher, is put down a frame or two early.
 DEVELOPERS.md, sixty-second session."""
+TRACKED_HEEL_WEIGHT = 0.25
+"""Weight of the tracker's heel against the placed one (behind the toe at the shoe's length, pitch and heading) in
+the reported heel of each foot whose heel is placed (0: the placed heel alone).  The placed heel is the better
+estimate, but the two err partly apart (the tracker's foot is fitted to the data about the heel as well): on the
+synthetic sweeps (eighty-seventh session's stored runs re-reported, good frames) the tracker's heels were 3.26 /
+3.10 cm off (sets C / A), the placed ones 2.49 / 2.38, and a weight of 0.2 / 0.25 / 0.3 gave 2.34 / 2.33 / 2.34
+(C), 2.20 / 2.19 / 2.18 (A) and 2.46 / 2.46 / 2.46 cm (B3: set B's ``slow_elderly``, ``baggy_trousers``,
+``stop_and_go``), 0.5 gave 2.45 (C): better in every phase of the step and every scenario of C and A.  Inverse-variance
+weights for independent errors would give the tracker's 0.37; the errors are correlated, and the measured minimum
+lies at 0.2-0.3 on all three sets.  DEVELOPERS.md, ninetieth session."""
 FOOT_ANKLE_WEIGHT = 0.5
 """Weight of the ankle where the leg model puts it in the placed foot (:func:`foot_ankle` of the reported heel and
 toe) against the tracker's own in the reported ankle of each foot whose heel is placed (0: the tracker's).  The
@@ -475,8 +487,9 @@ def with_lengths(states: FloatArray, held: FloatArray, *, thigh: float | FloatAr
     ``foot_pitch`` ``(F, 2)`` (rad, the heel-to-toe line's elevation: negative heel-up) is finite, behind the toe along
     the tracked foot's heading at that pitch; where ``foot_heading`` ``(F, 2)`` (rad, the heel-to-toe line's azimuth
     in the floor's plane) is finite, behind the toe along that heading (at the pitch given, else the tracked
-    foot's), and the ankle of each foot whose heel moved :data:`FOOT_ANKLE_WEIGHT` of the way to where the leg model
-    puts it in that foot (:func:`foot_ankle`), the knee along the calf from it; with ``heel_sides`` ``(F, 2)`` only
+    foot's), then drawn :data:`TRACKED_HEEL_WEIGHT` of the way back to the held heel, and the ankle of each foot whose
+    heel moved :data:`FOOT_ANKLE_WEIGHT` of the way to where the leg model puts it in the foot of the heel so placed
+    (:func:`foot_ankle`, before that draw), the knee along the calf from it; with ``heel_sides`` ``(F, 2)`` only
     those heels and ankles move (the others stay as held)."""
     x = np.array(states, dtype=np.float64, copy=True)
     h = np.array(held, dtype=np.float64, copy=True)
@@ -505,10 +518,12 @@ def with_lengths(states: FloatArray, held: FloatArray, *, thigh: float | FloatAr
         moved = _on_heel(h[:, :, 3], _along(h[:, :, 3], toward, x[:, L.LEN_FOOT], _BACK))
         sides = np.ones((len(x), 2), dtype=bool) if heel_sides is None else np.asarray(
             heel_sides, dtype=bool).reshape(len(x), 2)
-        h[:, :, 2] = np.where(sides[..., None], moved, h[:, :, 2])
+        # the ankle where the model has it in the placed foot (before the heel is drawn back towards the tracked one)
         if FOOT_ANKLE_WEIGHT > 0:
-            ankle = (1.0 - FOOT_ANKLE_WEIGHT) * h[:, :, 1] + FOOT_ANKLE_WEIGHT * foot_ankle(h[:, :, 2], h[:, :, 3])
+            ankle = (1.0 - FOOT_ANKLE_WEIGHT) * h[:, :, 1] + FOOT_ANKLE_WEIGHT * foot_ankle(moved, h[:, :, 3])
             h[:, :, 1] = np.where(sides[..., None] & np.isfinite(ankle), ankle, h[:, :, 1])
+        heel = (1.0 - TRACKED_HEEL_WEIGHT) * moved + TRACKED_HEEL_WEIGHT * h[:, :, 2]
+        h[:, :, 2] = np.where(sides[..., None], heel, h[:, :, 2])
     h[:, :, 0] = _along(h[:, :, 1], h[:, :, 0], x[:, L.LEN_CALF], _UP)
     return x, h
 
@@ -889,7 +904,8 @@ class LivePelvis:
         the tracked feet, at :func:`shoe_length`'s length: at least the typical shoe's, not the tracker's short one
         (at the tracked median the heels under baggy trousers were 0.5 cm worse placed, DEVELOPERS.md, sixty-first
         session; at this length 0.3-0.7 cm better, seventy-first).  Other heels stay the tracker's.
-        A foot whose heel is placed has its ankle placed too (:data:`FOOT_ANKLE_WEIGHT`); the toes and the other
+        A placed heel is drawn :data:`TRACKED_HEEL_WEIGHT` of the way back to the tracker's, and a foot whose heel is
+        placed has its ankle placed too (:data:`FOOT_ANKLE_WEIGHT`); the toes and the other
         ankles stay the tracker's bit for bit, and a pose whose heels and ankles moved keeps the tracker's as
         ``heel_tracked`` and ``ankle_tracked`` (what the gait analysis reads, :meth:`LegPose.as_tracked`)."""
         if not _placeable(pose) or not floor.usable:
