@@ -640,6 +640,17 @@ def _stand_then_heel_up(*, tracked_pitch_deg: float, n: int = 60, fps: float = 3
     return poses
 
 
+def _shown_heel_rise(rng: np.random.Generator) -> tuple[list[LegPose], np.ndarray, list[LegPose]]:
+    """:func:`_stand_then_heel_up` with the tracker 12 deg too flat in the heel rise, and the same poses with the rise
+    their shoes' uppers show (0.25 rad, the shoe's own, with 0.002 rad of noise; the left one 20 deg more in the heel
+    rise): the tracked poses, the rises ``(F, 2)`` and the measured poses."""
+    tracked = _stand_then_heel_up(tracked_pitch_deg=8.0)
+    n = len(tracked)
+    rise = 0.25 + rng.normal(0.0, 0.002, (n, 2))
+    rise[n // 2:, 0] += np.radians(20.0)
+    return tracked, rise, [dataclasses.replace(p, shoe_rise=r) for p, r in zip(tracked, rise)]
+
+
 @pytest.mark.usefixtures("placed_heels_alone")
 def test_a_heel_is_reported_at_the_pitch_its_shoe_upper_shows() -> None:
     """The tracker holds a foot in its heel rise several degrees flatter than it is (its foot is fitted to the whole
@@ -649,12 +660,8 @@ def test_a_heel_is_reported_at_the_pitch_its_shoe_upper_shows() -> None:
     upper whose rise scatters over the flat frames (a trouser hem over the shoe) or too few flat frames leave the
     heels as tracked."""
     rng = np.random.default_rng(5)
-    tracked = _stand_then_heel_up(tracked_pitch_deg=8.0)
+    tracked, rise, with_rise = _shown_heel_rise(rng)  # the shoe's own rise 0.25 rad, toe box to instep
     n = len(tracked)
-    shoe = 0.25  # rad: the shoe's own rise, toe box to instep
-    rise = shoe + rng.normal(0.0, 0.002, (n, 2))
-    rise[n // 2:, 0] += np.radians(20.0)
-    with_rise = [dataclasses.replace(p, shoe_rise=r) for p, r in zip(tracked, rise)]
     before = np.stack([p.points for p in tracked]) @ FLIP
     flat = before[: n // 2, :, [HEEL, TOE], 2]
     assert np.all(flat < pv.SHOE_FLAT_HEIGHT_M) and np.all(flat > -0.005)  # both feet stand flat at first
@@ -752,11 +759,8 @@ def test_the_reported_heel_draws_the_placed_one_towards_the_tracked_one(monkeypa
     reported heel a quarter of that."""
     assert pv.TRACKED_HEEL_WEIGHT == 0.25
     rng = np.random.default_rng(5)
-    tracked = _stand_then_heel_up(tracked_pitch_deg=8.0)
+    tracked, rise, with_rise = _shown_heel_rise(rng)
     n = len(tracked)
-    rise = 0.25 + rng.normal(0.0, 0.002, (n, 2))
-    rise[n // 2:, 0] += np.radians(20.0)
-    with_rise = [dataclasses.replace(p, shoe_rise=r) for p, r in zip(tracked, rise)]
     before = np.stack([p.points for p in tracked]) @ FLIP
     blended = np.stack([p.points for p in pv.place_poses(with_rise)]) @ FLIP
     _, live_out, live = _live(with_rise)
@@ -970,14 +974,12 @@ def test_live_heels_are_placed_causally_where_the_shoe_shows_them() -> None:
     """Live, frame by frame: once a foot's shoe has stood flat for :data:`SHOE_FLAT_FRAMES` frames with a steady rise,
     its heel is reported at the pitch its upper shows (a heel rise the tracker holds 12 deg too flat: as offline,
     within 3 mm) at the track's foot length so far; before that, and for an upper whose rise scatters and which
-    shows no steady heading, the tracker's heels bit for bit.  The ankles and toes stay the tracker's, and a pose
-    whose heels moved keeps the tracker's as ``heel_tracked`` (what the gait analysis reads)."""
+    shows no steady heading, the tracker's heels bit for bit.  The toes stay the tracker's, the ankles of the feet
+    whose heels moved go towards the placed foot's, and a pose whose heels and ankles moved keeps the tracker's as
+    ``heel_tracked`` and ``ankle_tracked`` (what the gait analysis reads)."""
     rng = np.random.default_rng(5)
-    tracked = _stand_then_heel_up(tracked_pitch_deg=8.0)
+    tracked, rise, with_rise = _shown_heel_rise(rng)
     n = len(tracked)
-    rise = 0.25 + rng.normal(0.0, 0.002, (n, 2))
-    rise[n // 2:, 0] += np.radians(20.0)
-    with_rise = [dataclasses.replace(p, shoe_rise=r) for p, r in zip(tracked, rise)]
     given, out, after = _live(with_rise)
     offline = np.stack([p.points for p in pv.place_poses(with_rise)]) @ FLIP
     assert np.abs(after[n // 2:, 0, HEEL] - offline[n // 2:, 0, HEEL]).max() < 0.003
