@@ -12,20 +12,8 @@ import pytest
 from rclpy.serialization import deserialize_message, serialize_message
 
 from walker_gait import messages as M
-from walker_gait.core.types import (
-    ANKLE,
-    HEEL,
-    HIP,
-    KNEE,
-    TOE,
-    EventKind,
-    FloorPlane,
-    GaitEvent,
-    LegPose,
-    Side,
-    Step,
-    TrackStatus,
-)
+from walker_gait.core.types import ANKLE, HEEL, HIP, KNEE, TOE
+from walker_gait.core.types import EventKind, FloorPlane, GaitEvent, LegPose, Side, Step, TrackStatus
 
 
 def rclpy_cls(typename: str):
