@@ -520,9 +520,10 @@ def test_a_track_is_reported_with_one_length_of_each_segment() -> None:
     """The tracker's lengths wander from frame to frame (they are part of its state), a user's do not: placed, a track
     whose calves and shoes wander about the true lengths is reported as the same walk tracked without the wander:
     every heel at the track's median foot length along its tracked foot from the seen toe, the knees and hips within
-    a few mm; the toes and ankles stay bit for bit.  A frame without a user ends a track: the next one (another user,
-    feet 3 cm longer) gets its own lengths.  Live, without the shoes measured (nothing shows where the heels are), the
-    heels stay the tracker's and the knees and hips are those of the walk without the wander."""
+    a few mm; the toes stay bit for bit and the ankles go towards the placed feet's.  A frame without a user ends a
+    track: the next one (another user, feet 3 cm longer) gets its own lengths.  Live, without the shoes measured
+    (nothing shows where the heels are), the heels stay the tracker's and the knees and hips are those of the walk
+    without the wander."""
     rng = np.random.default_rng(3)
     poses, _ = _walk(n=90, thigh=0.47)  # a thigh 5 cm longer than the calf
     longer = []  # the second user's feet: 3 cm longer (heels further back)
