@@ -187,6 +187,12 @@ def _floor() -> FloorPlane:
     return FloorPlane(normal=up, offset=0.5, rms=0.0, inlier_ratio=1.0, valid=True)
 
 
+def _body(camera: list[LegPose]) -> np.ndarray:
+    """The points of poses in the camera frame of :func:`_floor` in the body frame."""
+    floor = _floor()
+    return np.stack([floor.to_walker(p.points) for p in camera]) @ FLIP
+
+
 def _with_hips_and_knees(poses: list[LegPose], true_pts: np.ndarray, states: np.ndarray) -> list[LegPose]:
     """``poses`` as a tracker would report them holding ``states`` ``(F, 23)``: their feet (``true_pts``, body
     frame) kept, the hips, knees and joint angles those of the states."""
@@ -203,8 +209,7 @@ def _placed_live(live: pv.LivePelvis, poses: list[LegPose]) -> np.ndarray:
     camera frame of :func:`_floor`."""
     floor = _floor()
     rot, t = floor.walker_transform()
-    out = [live.place(pv.moved_pose(p, rot.T, -(rot.T @ t)), floor) for p in poses]
-    return np.stack([floor.to_walker(p.points) for p in out]) @ FLIP
+    return _body([live.place(pv.moved_pose(p, rot.T, -(rot.T @ t)), floor) for p in poses])
 
 
 def test_live_pelvis_follows_a_drifting_user_without_lag_and_keeps_the_feet() -> None:
@@ -256,8 +261,7 @@ def test_reported_poses_place_the_pelvis_in_the_walker_frame() -> None:
                            pelvis_window_s=1.0)
     want = pv.place_poses(walker_poses, window_s=1.0)
     np.testing.assert_allclose([floor.to_walker(p.points) for p in shown], [p.points for p in want], atol=1e-9)
-    _assert_same_feet(np.stack([floor.to_walker(p.points) for p in shown]) @ FLIP,
-                      np.stack([p.points for p in walker_poses]) @ FLIP, toe_atol=1e-12)
+    _assert_same_feet(_body(shown), np.stack([p.points for p in walker_poses]) @ FLIP, toe_atol=1e-12)
     assert np.abs(np.stack([body.to_body(p.points)[:, HIP] for p in shown])
                   - np.stack([body.to_body(p.points)[:, HIP] for p in cam])).max() > 0.03
     for kwargs in ({"floors": None, "pelvis_window_s": 1.0}, {"floors": [floor] * len(cam), "pelvis_window_s": 0.0}):
@@ -553,15 +557,7 @@ def test_a_track_is_reported_with_one_length_of_each_segment() -> None:
                                [np.median(_lengths(before[:45])[k]) for k in (0, 1)])
     assert np.all(np.isnan(pv.segment_lengths(np.full((3, 2, 5, 3), np.nan))))
     # live, no shoe measures: the heels as tracked; the knees and hips those of the clean walk's live placement
-    floor = _floor()
-    rot, t = floor.walker_transform()
-
-    def live(seq: list[LegPose]) -> np.ndarray:
-        lp = pv.LivePelvis()
-        out = [lp.place(pv.moved_pose(p, rot.T, -(rot.T @ t)), floor) for p in seq]
-        return np.stack([floor.to_walker(p.points) for p in out]) @ FLIP
-
-    got, live_want = live(tracked), live(clean)
+    got, live_want = _placed_live(pv.LivePelvis(), tracked), _placed_live(pv.LivePelvis(), clean)
     np.testing.assert_allclose(got[:, :, HEEL], before[:, :, HEEL], atol=1e-9)
     ok = np.ones(90, dtype=bool)
     ok[45] = False
@@ -947,12 +943,6 @@ def test_a_foot_standing_on_its_heel_is_reported_with_the_heel_on_the_floor() ->
     assert pv.HEEL_ON_FLOOR_M > 0.015
 
 
-def _body(camera: list[LegPose]) -> np.ndarray:
-    """The points of poses in the camera frame of :func:`_floor` in the body frame."""
-    floor = _floor()
-    return np.stack([floor.to_walker(p.points) for p in camera]) @ FLIP
-
-
 def _live(poses: list[LegPose]) -> tuple[list[LegPose], list[LegPose], np.ndarray]:
     """``poses`` (walker frame) given to a fresh :class:`LivePelvis` in the camera frame of :func:`_floor`, frame by
     frame: the camera-frame poses given and placed, and the placed points in the body frame.  Each frame's hips are
@@ -967,7 +957,7 @@ def _live(poses: list[LegPose]) -> tuple[list[LegPose], list[LegPose], np.ndarra
         given.append(pv.moved_pose(dataclasses.replace(p, points=pts), rot.T, -(rot.T @ t)))
     live = pv.LivePelvis()
     out = [live.place(p, floor) for p in given]
-    return given, out, np.stack([floor.to_walker(p.points) for p in out]) @ FLIP
+    return given, out, _body(out)
 
 
 @pytest.mark.usefixtures("placed_heels_alone")
