@@ -540,8 +540,9 @@ def test_tracker_runs_and_threads_must_be_small_whole_numbers() -> None:
 def test_one_pass_reports_the_pelvis_placed_frame_by_frame_as_the_live_node(short_session: Path) -> None:
     """``passes="forward"``: the reported poses are the tracker's with the out-of-view pelvis placed over the feet
     and the heels where the shoes show them frame by frame (``core.pelvis.LivePelvis``, as the live leg_tracker node),
-    those feet's ankles with them; the toes, the tracker's own heels and ankles (``heel_tracked``, ``ankle_tracked``,
-    what the analysis reads), the events and the steps are the same as without it."""
+    those feet's ankles with them, and the feet put on the floor (a flat foot's heel and toe on it, a toe under it
+    raised); the tracker's own heels, ankles and toes (``heel_tracked``, ``ankle_tracked``, ``toe_tracked``, what the
+    analysis reads), the events and the steps are the same as without it."""
     from types import SimpleNamespace
 
     from walker_gait.core.pelvis import LivePelvis
@@ -562,12 +563,17 @@ def test_one_pass_reports_the_pelvis_placed_frame_by_frame_as_the_live_node(shor
             got.append(proc.process(**kw))
     assert len(got_on) == 75
     live = LivePelvis(mounting="facing_user", window_s=on.options.report_pelvis_window_s)
-    placed = heels = 0
+    placed = heels = toes = 0
     for a, b in zip(got_off, got_on):
         assert a.pose.shoe_turn is None  # the placement off: the shoes are not measured (the tracking is the same)
-        np.testing.assert_array_equal(a.pose.points[:, TOE], b.pose.points[:, TOE])
         np.testing.assert_array_equal(a.pose.points[:, 2:], b.pose.as_tracked().points[:, 2:])
-        assert (b.pose.ankle_tracked is None) == (b.pose.heel_tracked is None)
+        if b.pose.toe_tracked is None:
+            np.testing.assert_array_equal(a.pose.points[:, TOE], b.pose.points[:, TOE])
+        else:  # put on the floor: only its height above the floor moved, and it is not under the floor
+            toes += 1
+            was, now = a.floor.to_walker(a.pose.points[:, TOE]), a.floor.to_walker(b.pose.points[:, TOE])
+            np.testing.assert_allclose(now[:, :2], was[:, :2], atol=1e-9)
+            assert now[:, 2].min() > -1e-9 and np.abs(now[:, 2] - was[:, 2]).max() > 0
         measured = dataclasses.replace(a.pose, shoe_rise=b.pose.shoe_rise, shoe_turn=b.pose.shoe_turn)
         np.testing.assert_array_equal(live.place(measured, a.floor).points, b.pose.points)
         placed += not np.array_equal(a.pose.points, b.pose.points, equal_nan=True)
@@ -577,6 +583,7 @@ def test_one_pass_reports_the_pelvis_placed_frame_by_frame_as_the_live_node(shor
         assert "pelvis" in b.timings_ms and "pelvis" not in a.timings_ms
     assert placed > 40  # every tracked frame's hips moved
     assert heels > 10  # and the heels of feet whose shoes the track has shown cleanly
+    assert toes > 10  # and toes put on the floor
 
 
 def test_the_backward_pass_tells_its_tracker_that_time_runs_backwards(monkeypatch: pytest.MonkeyPatch) -> None:

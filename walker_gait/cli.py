@@ -344,8 +344,9 @@ def build_parser() -> argparse.ArgumentParser:
                        "on the frame, with forward the last S seconds, as the live graph), with one length of "
                        "each segment per track, the tracked ones' median (the knees moved along the tracked calves "
                        "to it, and the heels along the tracked feet from the toes at the pitch and heading their "
-                       "shoes show, with forward only where the track has shown the shoe cleanly; default 1.0; 0 = the "
-                       "hips, knees and heels as tracked; the steps and events are the same either way)")
+                       "shoes show, with forward only where the track has shown the shoe cleanly, and the feet put "
+                       "on the floor, a foot whose heel and toe are within 2 cm of it flat on it; default 1.0; 0 = "
+                       "the hips, knees, heels and toes as tracked; the steps and events are the same either way)")
         p.add_argument("--leg-length-m", type=float, default=None, metavar="M",
                        help="the user's measured leg length in metres (the hip joint centre's height above the floor "
                        "standing; floor to greater trochanter; with only the stature at hand, about 0.53 of it): the "

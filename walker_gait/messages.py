@@ -27,6 +27,7 @@ from walker_gait.core.types import (
     JOINT_NAMES,
     LEG_POINTS,
     SEGMENTS,
+    TOE,
     CameraIntrinsics,
     FloorPlane,
     GaitEvent,
@@ -351,6 +352,7 @@ def make_leg_track(pose: LegPose, header: Any, *, particle_count: int = 0) -> An
     kwargs["heel_tracked"] = _side_points(pose.points[:, HEEL] if pose.heel_tracked is None else pose.heel_tracked)
     kwargs["ankle_tracked"] = _side_points(pose.points[:, ANKLE] if pose.ankle_tracked is None
                                            else pose.ankle_tracked)
+    kwargs["toe_tracked"] = _side_points(pose.points[:, TOE] if pose.toe_tracked is None else pose.toe_tracked)
     for si, seg in enumerate(SEGMENTS):
         kwargs[f"{seg}_proximal"] = _side_points(segs[:, si, 0])
         kwargs[f"{seg}_distal"] = _side_points(segs[:, si, 1])
@@ -361,10 +363,10 @@ def make_leg_track(pose: LegPose, header: Any, *, particle_count: int = 0) -> An
 
 
 def leg_pose_from_track(msg: Any) -> LegPose:
-    """Rebuild a :class:`LegPose` (points, segments, radii, visibility, status, the tracker's own heels and ankles)
-    from a ``LegTrack``: the points are the message's reported ones (its ``LEG_POINTS`` fields), not its segments'
-    ends; ``heel_tracked`` and ``ankle_tracked`` where the message's differ from its reported heels and ankles
-    (:meth:`LegPose.as_tracked` is what the gait analysis reads)."""
+    """Rebuild a :class:`LegPose` (points, segments, radii, visibility, status, the tracker's own heels, ankles and
+    toes) from a ``LegTrack``: the points are the message's reported ones (its ``LEG_POINTS`` fields), not its
+    segments' ends; ``heel_tracked``, ``ankle_tracked`` and ``toe_tracked`` where the message's differ from its
+    reported heels, ankles and toes (:meth:`LegPose.as_tracked` is what the gait analysis reads)."""
     segs = np.empty((2, 3, 2, 3))
     radii = np.empty((2, 3, 2))
     vis = np.empty((2, 3))
@@ -379,10 +381,11 @@ def leg_pose_from_track(msg: Any) -> LegPose:
     for s in range(2):
         for j, name in enumerate(LEG_POINTS):
             points[s, j] = _xyz(getattr(msg, name)[s])
-    # the tracker's own heels and ankles (a message recorded before the fields existed has none: its points are the
-    # tracker's)
+    # the tracker's own heels, ankles and toes (a message recorded before the fields existed has none: its points
+    # are the tracker's)
     heel_tracked = _tracked_points(msg, "heel_tracked", points[:, HEEL])
     ankle_tracked = _tracked_points(msg, "ankle_tracked", points[:, ANKLE])
+    toe_tracked = _tracked_points(msg, "toe_tracked", points[:, TOE])
     return LegPose(
         stamp=stamp_to_s(msg.header.stamp),
         points=points,
@@ -394,6 +397,7 @@ def leg_pose_from_track(msg: Any) -> LegPose:
         ess=float(msg.effective_sample_size),
         heel_tracked=heel_tracked,
         ankle_tracked=ankle_tracked,
+        toe_tracked=toe_tracked,
     )
 
 

@@ -62,10 +62,11 @@ NODE_PARAMS: dict[str, list[tuple[str, Any, str]]] = {
                                  "at least the typical adult's 0.26 m, the hem hides its back) "
                                  "behind its toe at the median foot length so far, at the pitch and heading its "
                                  "shoe shows (reported a quarter of the way back to the tracker's), and its ankle "
-                                 "halfway to where the leg model puts it in that foot "
-                                 "(the tracker's heels and ankles in `leg_track`'s `heel_tracked` and "
-                                 "`ankle_tracked`, which the gait analyzer reads; `walker_gait.core.pelvis`; 0 = as "
-                                 "tracked, the shoes not measured)"),
+                                 "halfway to where the leg model puts it in that foot; each foot whose heel and toe "
+                                 "are both within 2 cm of the floor on it, and no heel or toe under it "
+                                 "(the tracker's heels, ankles and toes in `leg_track`'s `heel_tracked`, "
+                                 "`ankle_tracked` and `toe_tracked`, which the gait analyzer reads; "
+                                 "`walker_gait.core.pelvis`; 0 = as tracked, the shoes not measured)"),
         ("leg_length_m", 0.0, "m; the user's measured leg length (the hip joint centre's standing height above the "
                               "floor: floor to greater trochanter; only the stature known: about 0.53 of it): with the "
                               "pelvis placed, the published thighs and "

@@ -23,6 +23,14 @@ def placed_heels_alone(monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setattr(pv, "TRACKED_HEEL_WEIGHT", 0.0)
 
 
+@pytest.fixture
+def feet_at_placed_heights(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The feet at the heights the other rules place them (:data:`~walker_gait.core.pelvis.FEET_ON_FLOOR` off): the
+    tests of those rules (the pelvis, the lengths, the heels' pitch and heading, the ankles) pose feet a little off
+    the floor or through it; :func:`test_feet_are_put_on_the_floor` and the tests after it cover the floor."""
+    monkeypatch.setattr(pv, "FEET_ON_FLOOR", False)
+
+
 def _state(angles_deg: list[float], *, root_xy: tuple[float, float] = (0.0, -0.09),
            thigh: float | None = None, calf: float | None = None) -> np.ndarray:
     x = lm.neutral_state(right_hip_xy=root_xy)
@@ -131,6 +139,7 @@ def test_place_pelvis_moves_the_pelvis_and_holds_the_knees_and_feet() -> None:
     assert np.all(new >= lm.STATE_LOWER - 1e-12) and np.all(new <= lm.STATE_UPPER + 1e-12)
 
 
+@pytest.mark.usefixtures("feet_at_placed_heights")
 def test_place_poses_puts_the_pelvis_over_the_feet_and_leaves_the_feet_alone() -> None:
     poses, states = _walk(lean_deg=-4.0)
     placed = pv.place_poses(poses)
@@ -212,6 +221,7 @@ def _placed_live(live: pv.LivePelvis, poses: list[LegPose]) -> np.ndarray:
     return _body([live.place(pv.moved_pose(p, rot.T, -(rot.T @ t)), floor) for p in poses])
 
 
+@pytest.mark.usefixtures("feet_at_placed_heights")
 def test_live_pelvis_follows_a_drifting_user_without_lag_and_keeps_the_feet() -> None:
     """Frame by frame, causal: a user who drifts back from the walker at 0.2 m/s (legs still: a standing user's lean)
     gets the pelvis placed over the ankles where they are now (a line through the last second's midpoints), not where
@@ -247,6 +257,7 @@ def test_live_pelvis_follows_a_drifting_user_without_lag_and_keeps_the_feet() ->
     assert live.place(pose, bad) is pose
 
 
+@pytest.mark.usefixtures("feet_at_placed_heights")
 def test_reported_poses_place_the_pelvis_in_the_walker_frame() -> None:
     """``smoothing.reported_poses`` places the pelvis as :func:`place_poses` does in each frame's walker frame, the
     feet kept; without floors (no walker frame) or with a window of 0 the hips stay as tracked."""
@@ -290,6 +301,7 @@ def test_a_held_pose_is_held_as_placed() -> None:
     assert not np.array_equal(out[24].points, out[19].points)
 
 
+@pytest.mark.usefixtures("feet_at_placed_heights")
 def test_the_hips_are_reported_a_typical_adults_width_apart() -> None:
     """The tracker's hip distance is unseen and starts from the feet's, narrower than the hips: a track carrying the
     hips 0.14 m apart over the same feet and knees is reported with them the typical adult's 0.18 m apart, each near
@@ -344,6 +356,7 @@ def test_unmeasured_legs_are_a_typical_adults_not_the_models_mean() -> None:
     assert abs((live_pts[inner][:, :, HIP, 2] - hip_z).mean()) < 0.004
 
 
+@pytest.mark.usefixtures("feet_at_placed_heights")
 def test_a_measured_leg_length_puts_the_hips_at_their_height() -> None:
     """A tall user (thighs and calves 3 cm longer than the typical adult's) tracked on legs 6 cm short in all (the
     camera sees neither the thighs nor the knees): not measured, the legs are reported as the typical adult's and the
@@ -409,6 +422,7 @@ def test_foot_ankle_is_the_models_ankle_in_a_foot_without_roll() -> None:
     assert np.all(np.isnan(pv.foot_ankle(np.zeros(3), np.array([0.0, 0.0, 0.25]))))
 
 
+@pytest.mark.usefixtures("feet_at_placed_heights")
 def test_an_ankle_is_reported_halfway_to_where_the_placed_foot_puts_it() -> None:
     """The tracker's ankle and the one the reported foot puts at the model's place in it err apart (it is fitted to
     the calf as well): a track whose ankles sit 3 cm above and 2 cm behind where its feet put them is reported with
@@ -462,6 +476,7 @@ def test_a_leg_length_must_be_in_metres_within_an_adults_range() -> None:
         pv.LivePelvis(leg_length_m=90.0)
 
 
+@pytest.mark.usefixtures("feet_at_placed_heights")
 def test_the_placed_pelvis_faces_the_feet() -> None:
     """A pelvis tracked turned 15 deg from where the feet point (its turn is as unseen as its place), the legs reaching
     the same knees and feet with other hip angles, is reported facing the feet's heading with the hip rotations of the
@@ -519,7 +534,7 @@ def _lengths(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
             np.linalg.norm(points[:, :, TOE] - points[:, :, HEEL], axis=-1))
 
 
-@pytest.mark.usefixtures("placed_heels_alone")
+@pytest.mark.usefixtures("placed_heels_alone", "feet_at_placed_heights")
 def test_a_track_is_reported_with_one_length_of_each_segment() -> None:
     """The tracker's lengths wander from frame to frame (they are part of its state), a user's do not: placed, a track
     whose calves and shoes wander about the true lengths is reported as the same walk tracked without the wander:
@@ -578,7 +593,7 @@ def _shod(poses: list[LegPose], *, longer: float, calf_radius: float) -> list[Le
     return out
 
 
-@pytest.mark.usefixtures("placed_heels_alone")
+@pytest.mark.usefixtures("placed_heels_alone", "feet_at_placed_heights")
 def test_a_shoe_under_a_trouser_hem_is_reported_at_least_the_typical_shoes_length() -> None:
     """A hem hides the back of the shoe, which the tracker then leaves out of its foot (short, never long): a track
     whose calves are a tube of loose fabric has its heels placed at least :data:`HEMMED_SHOE_M` behind their toes, a
@@ -648,7 +663,7 @@ def _shown_heel_rise(rng: np.random.Generator) -> tuple[list[LegPose], np.ndarra
     return tracked, rise, [dataclasses.replace(p, shoe_rise=r) for p, r in zip(tracked, rise)]
 
 
-@pytest.mark.usefixtures("placed_heels_alone")
+@pytest.mark.usefixtures("placed_heels_alone", "feet_at_placed_heights")
 def test_a_heel_is_reported_at_the_pitch_its_shoe_upper_shows() -> None:
     """The tracker holds a foot in its heel rise several degrees flatter than it is (its foot is fitted to the whole
     leg's data), while the shoe's upper, the foot's best-seen surface, turns with the foot: the rise measured on the
@@ -748,6 +763,7 @@ def _heading(points: np.ndarray) -> np.ndarray:
     return np.arctan2(d[..., 1], d[..., 0])
 
 
+@pytest.mark.usefixtures("feet_at_placed_heights")
 def test_the_reported_heel_draws_the_placed_one_towards_the_tracked_one(monkeypatch: pytest.MonkeyPatch) -> None:
     """The tracker's heel and the placed one err partly apart: each placed heel is reported
     :data:`TRACKED_HEEL_WEIGHT` of the way from the placed heel (behind the toe at the shoe's pitch) back to the
@@ -782,7 +798,7 @@ def test_the_reported_heel_draws_the_placed_one_towards_the_tracked_one(monkeypa
     np.testing.assert_allclose(live[placed][:, :, ANKLE], live_alone[placed][:, :, ANKLE], atol=1e-9)
 
 
-@pytest.mark.usefixtures("placed_heels_alone")
+@pytest.mark.usefixtures("placed_heels_alone", "feet_at_placed_heights")
 def test_a_flat_foot_is_reported_along_the_heading_its_shoe_shows() -> None:
     """The tracker holds a standing foot several degrees off its heading (its yaw is the end of the leg's chain);
     the shoe's centre line measures the turn: a flat foot is reported with its heel behind the seen toe along the
@@ -960,7 +976,7 @@ def _live(poses: list[LegPose]) -> tuple[list[LegPose], list[LegPose], np.ndarra
     return given, out, _body(out)
 
 
-@pytest.mark.usefixtures("placed_heels_alone")
+@pytest.mark.usefixtures("placed_heels_alone", "feet_at_placed_heights")
 def test_live_heels_are_placed_causally_where_the_shoe_shows_them() -> None:
     """Live, frame by frame: once a foot's shoe has stood flat for :data:`SHOE_FLAT_FRAMES` frames with a steady rise,
     its heel is reported at the pitch its upper shows (a heel rise the tracker holds 12 deg too flat: as offline,
@@ -998,7 +1014,7 @@ def test_live_heels_are_placed_causally_where_the_shoe_shows_them() -> None:
                for q, p in zip(noisy, plain))
 
 
-@pytest.mark.usefixtures("placed_heels_alone")
+@pytest.mark.usefixtures("placed_heels_alone", "feet_at_placed_heights")
 def test_live_flat_feet_follow_the_heading_their_shoe_shows() -> None:
     """Live: a flat foot the tracker holds 7 deg off its heading is reported along the heading its shoe's centre line
     shows once the track has :data:`SHOE_FLAT_FRAMES` flat frames of a steady line (within 0.6 deg, as offline), its
@@ -1026,7 +1042,7 @@ def test_live_flat_feet_follow_the_heading_their_shoe_shows() -> None:
                for g, o in zip(given, out))
 
 
-@pytest.mark.usefixtures("placed_heels_alone")
+@pytest.mark.usefixtures("placed_heels_alone", "feet_at_placed_heights")
 def test_live_a_hem_is_recognised_on_the_last_frames_calves() -> None:
     """A new track's calves start at the model's mean radius and widen to a tube of loose fabric only after a while:
     live, the hem is judged on the calves of the last :data:`LIVE_HEM_FRAMES` frames, so the heels under it are
@@ -1044,3 +1060,58 @@ def test_live_a_hem_is_recognised_on_the_last_frames_calves() -> None:
     assert pv.LIVE_HEM_FRAMES <= 20 and 0.06 < lo < 0.115 < hi + 0.01
     assert not placed[first - 1] and placed[first:].all()
     np.testing.assert_allclose(_lengths(after[first:])[1], pv.HEMMED_SHOE_M, atol=1e-6)
+
+
+def test_feet_are_put_on_the_floor() -> None:
+    """A foot whose heel and toe both read lower than :data:`SHOE_FLAT_HEIGHT_M` stands flat: both go onto the floor,
+    its ankle down with them by their drops interpolated at its place along the foot
+    (:data:`~walker_gait.core.leg_model.HEEL_BACK` from the heel); a toe under the floor of a foot in its heel rise is
+    raised onto it, the heel kept, the ankle up by that share of the toe's rise; a heel under the floor likewise.  Feet
+    off the floor and the knees stay bit for bit, only heights change, and NaN stays NaN."""
+    b = lm.HEEL_BACK
+    held = np.zeros((3, 2, 4, 3))
+    held[..., 0] = np.arange(24).reshape(3, 2, 4) * 0.01  # x, y: anything; kept
+    held[..., 1] = -np.arange(24).reshape(3, 2, 4) * 0.02
+    held[..., 0, 2], held[..., 1, 2] = 0.5, 0.09  # knees, ankles
+    held[0, 0, 2:, 2] = [0.012, 0.006]  # flat, a little up
+    held[0, 1, 2:, 2] = [0.08, -0.01]  # heel rise, its toe dipping under the floor
+    held[1, 0, 2:, 2] = [0.05, 0.03]  # in the air
+    held[1, 1, 2:, 2] = [0.015, 0.025]  # in the air: the toe over the flat height
+    held[2, 0] = np.nan
+    held[2, 1, 2:, 2] = [-0.004, 0.001]  # flat, the heel a little under the floor
+    out = pv.feet_on_floor(held)
+    np.testing.assert_array_equal(out[..., :2], held[..., :2])
+    np.testing.assert_array_equal(out[..., 0, :], held[..., 0, :])
+    np.testing.assert_array_equal(out[1], held[1])
+    assert np.all(np.isnan(out[2, 0]))
+    np.testing.assert_allclose(out[0, 0, 1:, 2], [0.09 - (1 - b) * 0.012 - b * 0.006, 0.0, 0.0], atol=1e-15)
+    np.testing.assert_allclose(out[0, 1, 1:, 2], [0.09 + b * 0.01, 0.08, 0.0], atol=1e-15)
+    np.testing.assert_allclose(out[2, 1, 1:, 2], [0.09 + (1 - b) * 0.004 - b * 0.001, 0.0, 0.0], atol=1e-15)
+    np.testing.assert_array_equal(held[0, 0, 2:, 2], [0.012, 0.006])  # the input is left alone
+
+
+def test_the_reported_feet_stand_on_the_floor_offline_and_live(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The walk's feet as the other rules place them (flat feet a little up, toes that dip under the floor as the
+    model's foot swings in its heel rise) are reported on the floor (:func:`feet_on_floor` of them), offline and live
+    alike; live, the tracker's own ankles, heels and toes stay in ``ankle_tracked``, ``heel_tracked`` and
+    ``toe_tracked`` for the gait analysis, which reads the poses as given (:meth:`LegPose.as_tracked`)."""
+    poses, _ = _walk(n=60, lean_deg=-8.0)
+    for i in range(0, 60, 2):  # every other frame the left foot flat, its heel 1.2 cm and its toe 0.6 cm up
+        pts = np.array(poses[i].points, dtype=np.float64, copy=True)
+        pts[0, [HEEL, TOE], 2] = [0.012, 0.006]
+        poses[i] = dataclasses.replace(poses[i], points=pts)
+    placed = {}
+    for on in (False, True):
+        monkeypatch.setattr(pv, "FEET_ON_FLOOR", on)
+        given, out, live = _live(poses)
+        placed[on] = (np.stack([p.points for p in pv.place_poses(poses)]) @ FLIP, live)
+    for before, after in zip(placed[False], placed[True]):
+        want = pv.feet_on_floor(before[:, :, [KNEE, ANKLE, HEEL, TOE]])
+        np.testing.assert_allclose(after[:, :, [ANKLE, HEEL, TOE]], want[:, :, 1:], atol=1e-9)
+        flat = (before[..., HEEL, 2] < pv.SHOE_FLAT_HEIGHT_M) & (before[..., TOE, 2] < pv.SHOE_FLAT_HEIGHT_M)
+        assert (flat & (np.abs(before[..., TOE, 2]) > 0.002)).sum() >= 10  # flat feet put down ...
+        assert (~flat & (before[..., TOE, 2] < -0.005)).sum() >= 10  # ... and toes raised, in enough frames
+        assert after[..., [HEEL, TOE], 2].min() > -1e-9
+    for g, o in zip(given, out):
+        np.testing.assert_array_equal(o.as_tracked().points[:, ANKLE:], g.points[:, ANKLE:])
+    assert sum(o.toe_tracked is not None for o in out) >= 20

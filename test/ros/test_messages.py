@@ -117,7 +117,7 @@ def test_leg_track_round_trips_a_pose() -> None:
     np.testing.assert_allclose(back.visibility, pose.visibility, rtol=1e-6)
     np.testing.assert_allclose(back.radii, pose.radii, rtol=1e-6)
     assert back.stamp == pytest.approx(3.5)
-    assert back.heel_tracked is None and back.ankle_tracked is None  # as tracked: nothing moved them
+    assert back.heel_tracked is None and back.ankle_tracked is None and back.toe_tracked is None  # as tracked
     assert back.as_tracked() is back
 
 
@@ -138,27 +138,37 @@ def test_leg_track_carries_the_trackers_heels_beside_the_placed_ones() -> None:
     assert analysed.heel_tracked is None
 
 
-def test_leg_track_carries_the_trackers_ankles_beside_the_placed_ones() -> None:
-    """The placement moves the reported ankles towards the placed foot's (LivePelvis); the message keeps the tracker's
-    in ``ankle_tracked``, and the pose rebuilt from it gives them and the tracker's heels back to the gait analysis
-    (``as_tracked``); a message without the field (recorded before it existed) reads as nothing moved."""
+def test_leg_track_carries_the_trackers_ankles_and_toes_beside_the_placed_ones() -> None:
+    """The placement moves the reported ankles towards the placed foot's and puts flat feet on the floor
+    (LivePelvis); the message keeps the tracker's in ``ankle_tracked`` and ``toe_tracked``, and the pose rebuilt from
+    it gives them and the tracker's heels back to the gait analysis (``as_tracked``); a message without the fields
+    (recorded before they existed) reads as nothing moved."""
     rng = np.random.default_rng(2)
     points = rng.normal(size=(2, 5, 3))
     heels = points[:, HEEL] + np.array([0.03, 0.0, -0.01])
     ankles = points[:, ANKLE] + np.array([0.0, 0.01, 0.02])
-    pose = LegPose(stamp=2.0, points=points, heel_tracked=heels, ankle_tracked=ankles)
+    toes = points[:, TOE] + np.array([0.0, 0.0, 0.007])
+    pose = LegPose(stamp=2.0, points=points, heel_tracked=heels, ankle_tracked=ankles, toe_tracked=toes)
     msg = M.deserialize(M.serialize(M.make_leg_track(pose, M.make_header(2.0, "c"))), M.LEG_TRACK)
     back = M.leg_pose_from_track(msg)
     np.testing.assert_allclose(back.points, points, atol=1e-12)
     np.testing.assert_allclose(back.ankle_tracked, ankles, atol=1e-12)
+    np.testing.assert_allclose(back.toe_tracked, toes, atol=1e-12)
     analysed = back.as_tracked()
     np.testing.assert_allclose(analysed.points[:, ANKLE], ankles, atol=1e-12)
     np.testing.assert_allclose(analysed.points[:, HEEL], heels, atol=1e-12)
-    np.testing.assert_array_equal(analysed.points[:, [HIP, KNEE, TOE]], back.points[:, [HIP, KNEE, TOE]])
-    assert analysed.ankle_tracked is None and analysed.heel_tracked is None
-    old = SimpleNamespace(**{f.name: getattr(msg, f.name) for f in dataclasses.fields(msg) if f.name != "ankle_tracked"})
-    assert not hasattr(old, "ankle_tracked")
-    assert M.leg_pose_from_track(old).ankle_tracked is None
+    np.testing.assert_allclose(analysed.points[:, TOE], toes, atol=1e-12)
+    np.testing.assert_array_equal(analysed.points[:, [HIP, KNEE]], back.points[:, [HIP, KNEE]])
+    assert analysed.ankle_tracked is None and analysed.heel_tracked is None and analysed.toe_tracked is None
+    only_toes = M.leg_pose_from_track(M.deserialize(M.serialize(M.make_leg_track(
+        LegPose(stamp=2.0, points=points, toe_tracked=toes), M.make_header(2.0, "c"))), M.LEG_TRACK))
+    assert only_toes.heel_tracked is None and only_toes.ankle_tracked is None
+    np.testing.assert_allclose(only_toes.as_tracked().points[:, TOE], toes, atol=1e-12)
+    old = SimpleNamespace(**{f.name: getattr(msg, f.name) for f in dataclasses.fields(msg)
+                             if f.name not in ("ankle_tracked", "toe_tracked")})
+    assert not hasattr(old, "ankle_tracked") and not hasattr(old, "toe_tracked")
+    rebuilt = M.leg_pose_from_track(old)
+    assert rebuilt.ankle_tracked is None and rebuilt.toe_tracked is None
 
 
 def test_pointcloud2_round_trip_organised_and_dense() -> None:

@@ -15,7 +15,7 @@ back and forth in that window) and turned to the feet's heading over that window
 unobserved as its place: 5-10 deg RMS off on the synthetic sessions, where the true one keeps within 2-3 deg of the
 feet's heading), the root height and the legs' joint angles but the ankle inversions are solved again
 (damped Gauss-Newton) so that each leg's knee, ankle, heel and toe stay where they were tracked, and the hips and the
-knees are reported from that solution, the toes as tracked (the heels and ankles below).  The thighs follow the
+knees are reported from that solution, the toes as tracked but for their height (the heels and ankles below).  The thighs follow the
 pelvis; the steps and the events are unchanged.  The angles are solved for the reported points themselves (which the
 tracker reports as a weighted mean over its particles, with the toe measured from the data and flat feet levelled),
 so they describe the pose the points show.
@@ -30,9 +30,12 @@ tracked foot (from the seen toe) to the shoe's length (live only a heel whose sh
 :meth:`LivePelvis.place`), reported a quarter of the way back to the tracked heel (:data:`TRACKED_HEEL_WEIGHT`: the
 two err partly apart).  Each foot whose heel is placed so has its ankle reported halfway
 (:data:`FOOT_ANKLE_WEIGHT`) between the tracker's and where the leg model puts the ankle in the placed foot
-(:func:`foot_ankle`), its knee moved along the calf with it.  The gait analysis reads the heels and ankles as
-tracked: live the placed pose keeps them as ``LegPose.heel_tracked`` and ``ankle_tracked`` (``LegTrack``'s), so
-that the live steps stay those of ``walker-gait process --passes forward``.
+(:func:`foot_ankle`), its knee moved along the calf with it.  Last, the feet are put on the floor
+(:func:`feet_on_floor`): a foot whose heel and toe both read within :data:`SHOE_FLAT_HEIGHT_M` of it stands flat and
+has both on it, a toe or heel under the floor is raised onto it, the ankle moving with its foot.  The gait analysis
+reads the heels, ankles and toes as tracked: live the placed pose keeps them as ``LegPose.heel_tracked``,
+``ankle_tracked`` and ``toe_tracked`` (``LegTrack``'s), so that the live steps stay those of ``walker-gait process
+--passes forward``.
 
 The heel is hidden behind the shoe, so where it stands is the toe's place, the shoe's length and the foot's pitch;
 the tracker holds a foot in its heel rise or swing several degrees off its pitch (its foot is fitted to the whole
@@ -97,6 +100,7 @@ __all__ = [
     "WALK_SWING_M",
     "calf_radii",
     "check_leg_length",
+    "feet_on_floor",
     "foot_ankle",
     "held_points",
     "hemmed",
@@ -192,6 +196,16 @@ few millimetres up, and the shoe's rise reads a landing foot's toe-up pitch shor
 clean sessions, more the steeper the landing): the heel of a flat foot was reported 0.6 cm up and a landing one's
 1.6 cm.  A foot about to land, its heel a few centimetres up with its toe higher, is put down a frame or two early.
 DEVELOPERS.md, sixty-second session."""
+FEET_ON_FLOOR = True
+"""Whether the reported feet are put on the floor (:func:`feet_on_floor`): a foot whose heel and toe both read lower
+than :data:`SHOE_FLAT_HEIGHT_M` stands flat, its sole on the floor, and no sole point is under the floor.  The heel
+and the toe are points of the sole (GAITRite's footprint), but the tracker stands a flat foot's toe a few millimetres
+up (it is measured from what stands above the segmentation's floor cut) and the placed heel follows it, and a toe
+pitched down can dip under the floor: on the synthetic sweeps (eighty-seventh session's stored runs re-reported)
+flat feet read 0.5-0.65 cm up on average, and 14 % of the toes were under the floor (4 % by more than 1 cm).  Put
+on it, heels 2.33 -> 2.29 / 2.19 -> 2.14 / 2.46 -> 2.43 cm and toes 1.93 -> 1.85 / 2.03 -> 1.96 / 1.89 -> 1.83 on
+good frames (sets C / A / B3), better in every scenario of the three sets; knees 0.04-0.08 cm and the ankle flexion
+0.1-0.25 deg better.  DEVELOPERS.md, ninety-first session.  ``False``: the heights as placed."""
 TRACKED_HEEL_WEIGHT = 0.25
 """Weight of the tracker's heel against the placed one (behind the toe at the shoe's length, pitch and heading) in
 the reported heel of each foot whose heel is placed (0: the placed heel alone).  The placed heel is the better
@@ -226,6 +240,10 @@ baggy trousers, some of which sway little enough to pass :data:`SHOE_TURN_JUMP`)
 
 _HELD = [KNEE, ANKLE, HEEL, TOE]
 """The points of each leg a placed pelvis leaves where they were tracked."""
+_FOOT = (ANKLE, HEEL, TOE)
+"""The points the placement may move (:meth:`LivePelvis.place`) ..."""
+_TRACKED = {ANKLE: "ankle_tracked", HEEL: "heel_tracked", TOE: "toe_tracked"}
+"""... and the :class:`~walker_gait.core.types.LegPose` fields that keep the tracker's own."""
 _SOLVED = np.array([L.ROOT_Z, *(L.ANGLES.start + 6 * side + j for side in (0, 1) for j in range(L.ANKLE_INV))])
 """The unknowns re-solved: the root height and each leg's hip (3), knee and ankle flexion angles.  The ankle
 inversion stays as tracked: the foot's roll about its own axis is the one thing its ankle, heel and toe points pin
@@ -545,6 +563,23 @@ def foot_ankle(heel: FloatArray, toe: FloatArray) -> FloatArray:
     ok = (length > 1e-9) & (run > 1e-9)
     out = heel + lm.HEEL_BACK * length * along + lm.ANKLE_HEIGHT * length * up
     return np.where(ok, out, np.nan)
+
+
+def feet_on_floor(held: FloatArray) -> FloatArray:
+    """``held`` ``(..., 4, 3)`` (:func:`held_points`: knee, ankle, heel, toe of each leg; body frame, z the height above
+    the floor) with each foot whose heel and toe are both lower than :data:`SHOE_FLAT_HEIGHT_M` put on the floor (its
+    heel and toe at height 0) and every other heel and toe under the floor raised onto it; each ankle moves up or
+    down with its foot, by the heel's and the toe's changes in height interpolated at the ankle's place along the foot
+    (:data:`~walker_gait.core.leg_model.HEEL_BACK` of the way from the heel).  Only heights change; NaN stays NaN."""
+    h = np.array(held, dtype=np.float64, copy=True)
+    heel, toe = h[..., 2, 2], h[..., 3, 2]
+    flat = (heel < SHOE_FLAT_HEIGHT_M) & (toe < SHOE_FLAT_HEIGHT_M)
+    new_heel = np.where(flat, 0.0, np.maximum(heel, 0.0))
+    new_toe = np.where(flat, 0.0, np.maximum(toe, 0.0))
+    rise = (1.0 - lm.HEEL_BACK) * (new_heel - heel) + lm.HEEL_BACK * (new_toe - toe)
+    h[..., 1, 2] += np.where(np.isfinite(rise), rise, 0.0)
+    h[..., 2, 2], h[..., 3, 2] = new_heel, new_toe
+    return h
 
 
 def _on_heel(toe: FloatArray, heel: FloatArray) -> FloatArray:
@@ -905,9 +940,10 @@ class LivePelvis:
         (at the tracked median the heels under baggy trousers were 0.5 cm worse placed, DEVELOPERS.md, sixty-first
         session; at this length 0.3-0.7 cm better, seventy-first).  Other heels stay the tracker's.
         A placed heel is drawn :data:`TRACKED_HEEL_WEIGHT` of the way back to the tracker's, and a foot whose heel is
-        placed has its ankle placed too (:data:`FOOT_ANKLE_WEIGHT`); the toes and the other
-        ankles stay the tracker's bit for bit, and a pose whose heels and ankles moved keeps the tracker's as
-        ``heel_tracked`` and ``ankle_tracked`` (what the gait analysis reads, :meth:`LegPose.as_tracked`)."""
+        placed has its ankle placed too (:data:`FOOT_ANKLE_WEIGHT`); then every foot is put on the floor as
+        :func:`feet_on_floor` says (:data:`FEET_ON_FLOOR`).  The ankles, heels and toes nothing moved stay the
+        tracker's bit for bit, and a pose whose ankles, heels or toes moved keeps the tracker's as ``ankle_tracked``,
+        ``heel_tracked`` or ``toe_tracked`` (what the gait analysis reads, :meth:`LegPose.as_tracked`)."""
         if not _placeable(pose) or not floor.usable:
             if pose.status in (TrackStatus.NO_USER, TrackStatus.SEARCHING):
                 self.reset()
@@ -919,7 +955,8 @@ class LivePelvis:
             # the tracker held its last pose (a blanked view): so is the placed one
             held = self._last[1]
             return dataclasses.replace(with_points(pose, np.array(held.points, dtype=np.float64), angles=held.angles),
-                                       heel_tracked=held.heel_tracked, ankle_tracked=held.ankle_tracked)
+                                       heel_tracked=held.heel_tracked, ankle_tracked=held.ankle_tracked,
+                                       toe_tracked=held.toe_tracked)
         rot, t = floor.walker_transform()
         walker = moved_pose(pose, rot, t)
         sample = support_sample(np.asarray(walker.points, dtype=np.float64) @ self._flip.T)
@@ -950,18 +987,19 @@ class LivePelvis:
             lengths[2] = np.nan  # every heel as tracked
         new, placed = _solve(body[None], np.asarray(pose.angles)[None], target[None], self.leg_length_m,
                              lengths[None], pitch[None], heading[None], heel_sides=clean[None])
-        # the new hips, knees and placed heels and ankles back in the camera frame; the toes and the other heels
-        # and ankles stay the tracker's bit for bit
+        # the new hips and knees back in the camera frame, with the placed heels and ankles and every ankle, heel and
+        # toe the placement moved (a foot put on the floor); the others stay the tracker's bit for bit
         pts = np.array(pose.points, dtype=np.float64, copy=True)
         pts[:, [HIP, KNEE]] = (placed[0][:, [HIP, KNEE]] @ self._flip - t) @ rot
-        pts[clean, HEEL] = (placed[0][clean, HEEL] @ self._flip - t) @ rot
-        pts[clean, ANKLE] = (placed[0][clean, ANKLE] @ self._flip - t) @ rot
-        out = with_points(pose, pts, angles=lm.joint_angles(new[0]))
-        if clean.any():  # what the gait analysis reads (LegPose.as_tracked)
-            if pose.heel_tracked is None:
-                out = dataclasses.replace(out, heel_tracked=np.array(pose.points[:, HEEL], dtype=np.float64))
-            if pose.ankle_tracked is None and FOOT_ANKLE_WEIGHT > 0:
-                out = dataclasses.replace(out, ankle_tracked=np.array(pose.points[:, ANKLE], dtype=np.float64))
+        moved = np.any(placed[0][:, _FOOT] != body[:, _FOOT], axis=-1)  # (2, 3): side, ankle / heel / toe
+        moved[clean, 0] |= FOOT_ANKLE_WEIGHT > 0
+        moved[clean, 1] = True
+        fields = {}
+        for j, point in enumerate(_FOOT):
+            pts[moved[:, j], point] = (placed[0][moved[:, j], point] @ self._flip - t) @ rot
+            if moved[:, j].any() and getattr(pose, _TRACKED[point]) is None:  # what the gait analysis reads
+                fields[_TRACKED[point]] = np.array(pose.points[:, point], dtype=np.float64)
+        out = dataclasses.replace(with_points(pose, pts, angles=lm.joint_angles(new[0])), **fields)
         self._last = (pose, out)
         return out
 
@@ -999,10 +1037,12 @@ def _solve(points: FloatArray, angles: FloatArray, target: FloatArray, leg_lengt
                                 foot_heading=None if foot is None else foot_heading, heel_sides=heel_sides)
     if leg_length_m is not None:
         states, held = with_leg_length(states, held, leg_length_m)
+    if FEET_ON_FLOOR:
+        held = feet_on_floor(held)
     new = place_pelvis(states, held, target[:, :2], yaw=target[:, 2])
     placed = np.array(points, dtype=np.float64, copy=True)
     placed[:, :, [HIP, KNEE]] = lm.forward_kinematics(new).points[:, :, [HIP, KNEE]]
-    placed[:, :, [ANKLE, HEEL]] = held[:, :, [1, 2]]
+    placed[:, :, [ANKLE, HEEL, TOE]] = held[:, :, [1, 2, 3]]
     return new, placed
 
 

@@ -420,7 +420,7 @@ def swap_sides(pose: LegPose) -> LegPose:
     return dataclasses.replace(pose, points=pts, angles=angles, segments=segs, radii=flipped(pose.radii),
                                visibility=flipped(pose.visibility), shoe_rise=flipped(pose.shoe_rise),
                                shoe_turn=flipped(pose.shoe_turn), heel_tracked=flipped(pose.heel_tracked),
-                               ankle_tracked=flipped(pose.ankle_tracked))
+                               ankle_tracked=flipped(pose.ankle_tracked), toe_tracked=flipped(pose.toe_tracked))
 
 
 def _swapped_points(points: FloatArray) -> FloatArray:

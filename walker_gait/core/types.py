@@ -240,19 +240,22 @@ class LegPose:
     shoe_turn: FloatArray | None = None  # (2,) [side] rad, the shoe's centre line's turn from the reported foot's heading, anticlockwise from above (feet.measure_shoe_turn), NaN unmeasured
     heel_tracked: FloatArray | None = None  # (2, 3) [side, xyz] the tracker's own heels where the reported ones (points) were placed elsewhere (pelvis.LivePelvis), what the gait analysis reads; None: the points' own
     ankle_tracked: FloatArray | None = None  # (2, 3) [side, xyz] the tracker's own ankles where the reported ones were placed elsewhere (pelvis.LivePelvis), what the gait analysis reads; None: the points' own
+    toe_tracked: FloatArray | None = None  # (2, 3) [side, xyz] the tracker's own toes where the reported ones were put elsewhere (on the floor: pelvis.LivePelvis), what the gait analysis reads; None: the points' own
 
     def as_tracked(self) -> LegPose:
-        """This pose with the tracker's own heels and ankles (``heel_tracked``, ``ankle_tracked``) in its points: the
-        pose the gait analysis reads (the live placement moves the reported ones, the analysis reads them as
-        tracked)."""
-        if self.heel_tracked is None and self.ankle_tracked is None:
+        """This pose with the tracker's own heels, ankles and toes (``heel_tracked``, ``ankle_tracked``,
+        ``toe_tracked``) in its points: the pose the gait analysis reads (the live placement moves the reported ones,
+        the analysis reads them as tracked)."""
+        if self.heel_tracked is None and self.ankle_tracked is None and self.toe_tracked is None:
             return self
         pts = np.array(self.points, dtype=np.float64, copy=True)
         if self.heel_tracked is not None:
             pts[:, HEEL] = self.heel_tracked
         if self.ankle_tracked is not None:
             pts[:, ANKLE] = self.ankle_tracked
-        return replace(self, points=pts, heel_tracked=None, ankle_tracked=None)
+        if self.toe_tracked is not None:
+            pts[:, TOE] = self.toe_tracked
+        return replace(self, points=pts, heel_tracked=None, ankle_tracked=None, toe_tracked=None)
 
     @classmethod
     def no_user(cls, stamp: float) -> LegPose:

@@ -610,8 +610,8 @@ class GaitAnalyzerNode(WalkerNode):
         from walker_gait.core.gait import GaitAnalyzer
 
         self.frame_id = msg.header.frame_id
-        # the analysis reads the tracker's own heels and ankles (the reported ones are placed: LegTrack.heel_tracked,
-        # ankle_tracked), so its steps are those of an offline one-pass run
+        # the analysis reads the tracker's own heels, ankles and toes (the reported ones are placed: LegTrack.
+        # heel_tracked, ankle_tracked, toe_tracked), so its steps are those of an offline one-pass run
         pose = M.leg_pose_from_track(msg).as_tracked()
         if self._last_stamp is not None and pose.stamp < self._last_stamp - TIME_JUMP_RESET_S:
             self.get_logger().warning(
